@@ -1,0 +1,132 @@
+// Run configuration: plain structs with defaults, one comment per field, and validation that
+// names the offending JSON path. The JSON mapping (parseRunConfig / toJson) is the only place
+// that knows the JSON spelling; the CLI, the daemon and tests all go through it.
+//
+// Example (every key optional except data.path or data.scene):
+// {
+//   "data": {"path": "table.csv", "inputs": ["mu", "r"], "outputs": ["A"],
+//            "weights": "w", "transforms": {"A": "log"}},
+//   "program": {"max_length": 32, "constants": 8, "output_mode": "last",
+//               "ops": ["add", "sub", "mul", "div", "mad", "exp2", "min", "max"]},
+//   "objectives": {"error": "rmse", "combine": "mean", "cost_model": "gpu-generic",
+//                  "cost_overrides": {"div": 3}, "discontinuity_weights": {"abs": 0.5}},
+//   "search": {"population": 400, "generations": 200, "max_evaluations": 0,
+//              "wall_time_s": 0, "seed": 1, "threads": 0},
+//   "output": {"front_json": "front.json", "front_csv": "front.csv"}
+// }
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/ops.hpp"
+#include "lgp/core/program.hpp"
+#include "lgp/eval/objectives.hpp"
+#include "lgp/search/nelder_mead.hpp"
+#include "lgp/search/pareto.hpp"
+
+namespace lgp {
+
+struct DataConfig {
+  std::string path;                   // CSV or JSON table; relative to the config file
+  std::string scene;                  // or a scene JSON for the datasets/ generators
+  std::vector<std::string> inputs;    // input column names; empty = the file's declared inputs
+  std::vector<std::string> outputs;   // output column names; empty = the file's declared outputs
+  std::string weights;                // per-row weight column; empty = file weights or uniform
+  std::map<std::string, TargetTransform> transforms;  // fit T(y) for these outputs
+  std::string cache_dir;              // generated-table cache (scene only); empty = default
+};
+
+struct ProgramConfig {
+  int max_length = 32;                        // opcodes per program (1..255)
+  int num_constants = 8;                      // constant slots per program (0..255)
+  OutputMode output_mode = OutputMode::Last;  // last k opcodes, or designated slots
+  std::vector<Op> ops;                        // allowed operators; empty = kDefaultOps
+  int init_min_length = 2;                    // random initial programs: length range
+  int init_max_length = 12;
+  double const_min = -2.0;                    // initial constants: uniform in [min, max]
+  double const_max = 2.0;
+};
+
+struct ObjectiveConfig {
+  ErrorMetric metric = ErrorMetric::Rmse;       // the error objective
+  OutputCombine combine = OutputCombine::Mean;  // across outputs
+  double rel_floor = 1e-6;                      // denominator floor of mean_rel
+  CostTarget cost_model = CostTarget::GpuGeneric;
+  std::map<Op, double> cost_overrides;          // per-operator cost replacing the model's
+  std::map<Op, double> discontinuity_weights;   // per-operator weight replacing the default
+};
+
+struct VariationConfig {
+  double crossover_rate = 0.6;   // offspring made by two-segment crossover, then mutated
+  double macro_rate = 0.3;       // chance of an insertion or deletion
+  double micro_rate = 0.9;       // chance of 1..micro_max micro mutations
+  int micro_max = 2;             // micro mutations per offspring, at most
+  double constant_sigma = 0.2;   // relative Gaussian step of a constant mutation
+  double effective_bias = 0.9;   // chance a micro mutation targets an effective opcode
+};
+
+struct NelderMeadSchedule {
+  double offspring_share = 0.02;  // share of each generation's offspring refined
+  int archive_period = 10;        // refine archive members not yet refined every N generations
+  int archive_max = 32;           // archive members refined per period, at most
+  NelderMeadConfig nm;            // per-call budget and coefficients
+};
+
+struct SearchConfig {
+  int population = 400;             // individuals per generation (>= 4)
+  int generations = 100;            // budget; 0 = unlimited (then another budget must be set)
+  uint64_t max_evaluations = 0;     // budget in program evaluations; 0 = unlimited
+  double wall_time_s = 0;           // budget in seconds; 0 = unlimited
+  uint64_t seed = 1;                // same seed + config + threads => same front
+  int threads = 0;                  // OpenMP threads; 0 = all cores
+  int tournament_size = 2;          // NSGA-II binary tournament by default
+  VariationConfig variation;
+  NelderMeadSchedule refine;
+  ArchiveConfig archive;
+};
+
+struct EvalConfig {
+  int block_size = 256;  // rows per interpreter block; multiple of 16, in [16, 16384]
+};
+
+struct OutputConfig {
+  std::string front_json = "front.json";     // relative to the working directory
+  std::string front_csv = "front.csv";       // empty = not written
+  double progress_interval_s = 1.0;          // progress line period; 0 = every generation
+  std::vector<double> progress_cost_levels;  // best error at cost <= c; empty = automatic
+};
+
+struct RunConfig {
+  DataConfig data;
+  ProgramConfig program;
+  ObjectiveConfig objectives;
+  SearchConfig search;
+  EvalConfig eval;
+  OutputConfig output;
+  nlohmann::json references = nlohmann::json::array();  // formulas to score beside the front
+  std::filesystem::path base_dir;  // directory of the config file (for relative data paths)
+
+  Status validate() const;
+  ProgramShape shape(int num_inputs, int num_outputs) const;
+  CostModel costModel() const;
+  DiscontinuityModel discontinuityModel() const;
+  ErrorConfig errorConfig(const std::vector<std::string>& output_names) const;
+};
+
+// Operators used when the config lists none: everything except the rarely useful
+// trigonometric pair (add them explicitly for periodic data).
+std::vector<Op> defaultOps();
+
+// Parses and validates. Errors name the JSON path, e.g.
+// "/search/population: must be an integer >= 4 (got 2)" or "/search/popsize: unknown key".
+Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesystem::path& base_dir);
+Expected<RunConfig> loadRunConfig(const std::filesystem::path& path);
+nlohmann::json toJson(const RunConfig& c);
+
+}  // namespace lgp

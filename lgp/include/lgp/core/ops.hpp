@@ -1,0 +1,160 @@
+// The operator table: every opcode is described once, here. The interpreter kernels, the
+// double reference evaluator, the cost models, mutation and the emitters all read it.
+//
+// Protected semantics (identical in the float32 interpreter and the double reference; the
+// emitters reproduce them exactly unless told a member never reaches a guard):
+//   guard(b)  = |b| < kDivGuard ? copysign(kDivGuard, b) : b
+//   div(a,b)  = a / guard(b)             rcp(a)   = 1 / guard(a)
+//   sqrt(a)   = sqrt(a > 0 ? a : 0)      rsqrt(a) = 1 / sqrt(a > kMinPos ? a : kMinPos)
+//   log2(a)   = log2(a > kMinPos ? a : kMinPos)       (so log2 >= -126: no -inf, no NaN)
+//   log(a)    = log2(a) * ln 2 with the same floor
+//   exp2(a)   = 2^clamp(a, -kExpClamp, kExpClamp)     (never overflows to +inf)
+//   exp(a)    = exp2(a * log2 e)  with the same clamp
+//   pow(a,b)  = exp2(b * log2(a)) with the protected log2 and exp2 above; pow of a <= 0 is
+//               pow of kMinPos, i.e. ~0 for b > 0 (HLSL's pow is undefined there)
+//   saturate(a) = a > 0 ? (a < 1 ? a : 1) : 0         (NaN -> 0, as GPUs do)
+//   min(a,b) = a < b ? a : b    max(a,b) = a > b ? a : b    select(a,b,c,d) = a > b ? c : d
+//   mad(a,b,c) = a*b + c (two roundings)   lerp(a,b,t) = a + (b - a)*t   square(a) = a*a
+// Anything else that is not finite (overflowing products, inf - inf) propagates; the
+// fitness layer turns any non-finite output into the worst possible error.
+//
+// select has four operands; every other operator has at most three.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace lgp {
+
+inline constexpr float kDivGuard = 1e-20f;
+inline constexpr float kMinPos = 1.17549435e-38f;  // FLT_MIN: floor of log/rsqrt/pow arguments
+inline constexpr float kExpClamp = 126.0f;         // |exponent| limit of exp2/exp/pow
+inline constexpr int kMaxArity = 4;
+
+// Cost targets. Costs are in "FMA-equivalent issue slots" of the target; see
+// ../shared/docs/PUBLISHED.md. gpu-generic: FMA-class 1, special function 4, source
+// modifiers (abs, neg, saturate) free. nvidia: SFU (MUFU) ops 4 (16-32 vs 64-128 results/clk/SM),
+// sqrt = rsq+rcp, div = rcp+mul. gcn: quarter-rate transcendentals 4 (SISchedule.td), native
+// v_sqrt, sin/cos need a 1/2pi pre-multiply. rdna: GFX10 latency ratio WriteTrans32/Write32Bit
+// = 10/5, so transcendentals 2. cpu: AVX2 reciprocal throughput relative to an FMA, with the
+// vectorised polynomial libm for exp/log/sin/cos.
+enum class CostTarget : uint8_t { GpuGeneric, Nvidia, Gcn, Rdna, Cpu };
+inline constexpr int kNumCostTargets = 5;
+inline constexpr std::array<std::string_view, kNumCostTargets> kCostTargetNames = {
+    "gpu-generic", "nvidia", "gcn", "rdna", "cpu"};
+
+// X(Enum, name, arity, piecewise, {generic, nvidia, gcn, rdna, cpu}, infix, hlsl, glsl, cpp)
+// Templates use {0}..{3} for operands. `infix` is the readable form printed in fronts and
+// accepted by the parser; it names protected functions by their op name.
+#define LGP_OPS(X)                                                                             \
+  X(Add, "add", 2, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",        \
+    "({0} + {1})")                                                                             \
+  X(Sub, "sub", 2, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",        \
+    "({0} - {1})")                                                                             \
+  X(Mul, "mul", 2, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",        \
+    "({0} * {1})")                                                                             \
+  X(Div, "div", 2, false, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",        \
+    "({0} / {1})")                                                                             \
+  X(Mad, "mad", 3, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",         \
+    "({0} * {1} + {2})", "({0} * {1} + {2})")                                                  \
+  X(Neg, "neg", 1, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")             \
+  X(Rcp, "rcp", 1, false, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})",             \
+    "(1.0f / {0})")                                                                            \
+  X(Sqrt, "sqrt", 1, false, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",            \
+    "std::sqrt({0})")                                                                          \
+  X(Rsqrt, "rsqrt", 1, false, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})", \
+    "(1.0f / std::sqrt({0}))")                                                                 \
+  X(Square, "square", 1, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})",                 \
+    "({0} * {0})", "({0} * {0})")                                                              \
+  X(Exp2, "exp2", 1, false, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",            \
+    "std::exp2({0})")                                                                          \
+  X(Log2, "log2", 1, false, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",            \
+    "std::log2({0})")                                                                          \
+  X(Exp, "exp", 1, false, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})") \
+  X(Log, "log", 1, false, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})", "std::log({0})") \
+  X(Pow, "pow", 2, false, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})",                  \
+    "pow({0}, {1})", "std::pow({0}, {1})")                                                     \
+  X(Sin, "sin", 1, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})",                \
+    "std::sin({0})")                                                                           \
+  X(Cos, "cos", 1, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})",                \
+    "std::cos({0})")                                                                           \
+  X(Min, "min", 2, true, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})", "min({0}, {1})",   \
+    "std::min({0}, {1})")                                                                      \
+  X(Max, "max", 2, true, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})", "max({0}, {1})",   \
+    "std::max({0}, {1})")                                                                      \
+  X(Abs, "abs", 1, true, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})",                  \
+    "std::fabs({0})")                                                                          \
+  X(Saturate, "saturate", 1, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",          \
+    "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                     \
+  X(Lerp, "lerp", 3, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})",     \
+    "mix({0}, {1}, {2})", "({0} + ({1} - {0}) * {2})")                                         \
+  X(Select, "select", 4, true, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",                  \
+    "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})")
+
+enum class Op : uint8_t {
+#define LGP_X_ENUM(E, ...) E,
+  LGP_OPS(LGP_X_ENUM)
+#undef LGP_X_ENUM
+};
+
+inline constexpr int kNumOps = 0
+#define LGP_X_COUNT(...) +1
+    LGP_OPS(LGP_X_COUNT)
+#undef LGP_X_COUNT
+    ;
+
+struct OpInfo {
+  Op op;
+  std::string_view name;  // config / JSON / CLI spelling
+  int arity;
+  bool piecewise;  // counts towards the discontinuity objective by default
+  std::array<double, kNumCostTargets> cost;
+  std::string_view infix;  // readable form, {0}..{3} placeholders
+  std::string_view hlsl;   // raw (unprotected) spelling per language
+  std::string_view glsl;
+  std::string_view cpp;
+};
+
+namespace detail {
+#define LGP_X_COST(a, b, c, d, e) \
+  { a, b, c, d, e }
+#define LGP_X_INFO(E, NAME, AR, PW, COST, INF, HL, GL, CP) \
+  OpInfo{Op::E, NAME, AR, PW, LGP_X_COST COST, INF, HL, GL, CP},
+inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
+#undef LGP_X_INFO
+#undef LGP_X_COST
+}  // namespace detail
+
+constexpr const OpInfo& opInfo(Op op) { return detail::kOpTable[static_cast<int>(op)]; }
+constexpr int arity(Op op) { return opInfo(op).arity; }
+constexpr std::string_view opName(Op op) { return opInfo(op).name; }
+constexpr const std::array<OpInfo, kNumOps>& allOps() { return detail::kOpTable; }
+
+std::optional<Op> opFromString(std::string_view name);
+std::optional<CostTarget> costTargetFromString(std::string_view name);
+inline std::string_view toString(CostTarget t) { return kCostTargetNames[static_cast<int>(t)]; }
+
+// A set of allowed operators, as a bitmask over Op.
+class OpSet {
+ public:
+  OpSet() = default;
+  static OpSet all() {
+    OpSet s;
+    for (const auto& i : allOps()) s.insert(i.op);
+    return s;
+  }
+  void insert(Op op) { bits_ |= (1u << static_cast<int>(op)); }
+  void erase(Op op) { bits_ &= ~(1u << static_cast<int>(op)); }
+  bool contains(Op op) const { return (bits_ >> static_cast<int>(op)) & 1u; }
+  bool empty() const { return bits_ == 0; }
+  uint32_t bits() const { return bits_; }
+
+ private:
+  uint32_t bits_ = 0;
+  static_assert(kNumOps <= 32);
+};
+
+}  // namespace lgp

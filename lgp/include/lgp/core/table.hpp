@@ -1,0 +1,70 @@
+// A sampled table: named input and output columns in double precision, optional per-row
+// weights, and a metadata JSON (definition, grid, integrator, ... for generated tables).
+// Every data source (user CSV/JSON, generators in datasets/) produces this one type.
+//
+// JSON table format ("lgp-table/1"), written by `lgp data` and accepted by `lgp run`:
+//   { "format": "lgp-table/1",
+//     "inputs": ["mu", "r"], "outputs": ["A", "B"],      // default roles of the columns
+//     "columns": { "mu": [...], "r": [...], "A": [...], "B": [...] },
+//     "weights": [...],                                   // optional, one per row, >= 0
+//     "errors":  { "A": [...], "B": [...] },              // optional per-entry error estimates
+//     "meta": { ... } }                                   // optional, free-form
+// CSV: a header row of column names, then one row of numbers per sample.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/status.hpp"
+
+namespace lgp {
+
+struct Table {
+  std::vector<std::string> input_names;
+  std::vector<std::string> output_names;
+  std::vector<std::vector<double>> inputs;   // [input][row]
+  std::vector<std::vector<double>> outputs;  // [output][row]
+  std::vector<double> weights;               // empty = uniform
+  nlohmann::json meta = nlohmann::json::object();
+
+  size_t rows() const { return inputs.empty() ? (outputs.empty() ? 0 : outputs[0].size())
+                                              : inputs[0].size(); }
+  size_t numInputs() const { return inputs.size(); }
+  size_t numOutputs() const { return outputs.size(); }
+
+  // Shape, finiteness and weight checks; the message names the column and row.
+  Status validate() const;
+};
+
+// All columns of a file, before roles are assigned.
+struct RawTable {
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> columns;
+  std::vector<std::string> default_inputs;   // from a JSON table's "inputs", if present
+  std::vector<std::string> default_outputs;  // from a JSON table's "outputs", if present
+  std::vector<double> weights;               // from a JSON table's "weights", if present
+  nlohmann::json meta = nlohmann::json::object();
+
+  int find(const std::string& name) const;
+};
+
+Expected<RawTable> readCsv(const std::filesystem::path& path);
+Expected<RawTable> readJsonTable(const std::filesystem::path& path);
+Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& origin);
+// By extension: .csv is CSV, anything else is parsed as a JSON table.
+Expected<RawTable> readTableFile(const std::filesystem::path& path);
+
+// Picks inputs, outputs and an optional weight column by name. Empty name lists fall back to
+// the file's declared roles. `origin` names the file in error messages.
+Expected<Table> selectColumns(const RawTable& raw, const std::vector<std::string>& inputs,
+                              const std::vector<std::string>& outputs,
+                              const std::string& weight_column, const std::string& origin);
+
+// Writes a table in the lgp-table/1 JSON format, or CSV.
+nlohmann::json toJson(const Table& t);
+Status writeCsv(const Table& t, const std::filesystem::path& path);
+
+}  // namespace lgp

@@ -1,0 +1,36 @@
+// Variation operators. Every function returns a program that satisfies validate(): operand
+// references always point at earlier opcodes, lengths stay within [k, max_length], and in
+// OutputMode::Last the outputs are re-synchronised.
+#pragma once
+
+#include "lgp/core/program.hpp"
+#include "lgp/core/rng.hpp"
+
+namespace lgp {
+
+struct InitConfig {
+  int min_length = 2;
+  int max_length = 12;
+  double const_min = -2.0;
+  double const_max = 2.0;
+};
+
+Program randomProgram(const ProgramShape& shape, const InitConfig& init, Rng& rng);
+Instr randomInstr(const ProgramShape& shape, int position, Rng& rng);
+Operand randomOperand(const ProgramShape& shape, int position, Rng& rng);
+
+// Two-segment linear crossover: child = a[0:i) + b[k:l) + a[j:). The segment is copied
+// blindly; references are then remapped so that they still point at earlier opcodes
+// (relative offsets inside the segment are preserved).
+Program crossover(const Program& a, const Program& b, const ProgramShape& shape, Rng& rng);
+
+// Micro mutation: one operator, operand, output slot (Designated mode) or constant change.
+// With probability effective_bias the target is an effective opcode.
+void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
+                 double effective_bias);
+
+// Macro mutation: insert a random opcode (and wire a later effective opcode to it) or delete
+// one (redirecting its users), shifting references.
+void macroMutate(Program& p, const ProgramShape& shape, Rng& rng);
+
+}  // namespace lgp

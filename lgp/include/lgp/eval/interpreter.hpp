@@ -1,0 +1,111 @@
+// The data-parallel bytecode interpreter (seed 000 section 5.2).
+//
+// Rules it relies on:
+//  1. Bind once, evaluate many: a Program is decoded once into a BoundProgram holding only its
+//     effective opcodes, each with a kernel pointer and operand slots.
+//  2. Rows are processed in blocks of `block_size` (a multiple of 16, sized so that
+//     registers x block fits in L1/L2). Each opcode runs over the whole block in one kernel
+//     call: dispatch cost is per opcode per block, never per row.
+//  3. Every operand is a float column of the block: an input column of the Dataset, a
+//     register row of the scratch buffer, or a constant broadcast row. Kernels are plain loops
+//     over `float*` that the compiler vectorises; transcendentals come from vecmath.hpp.
+//  4. The scratch buffer belongs to the Interpreter (one per thread) and is sized once; the
+//     hot loop never allocates, throws or calls scalar libm.
+//  5. Reductions over rows accumulate per block in double, and blocks are combined in block
+//     order, so results do not depend on the thread count.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "lgp/core/program.hpp"
+#include "lgp/core/table.hpp"
+
+namespace lgp {
+
+// Float32 copy of a table's columns, padded to a whole number of blocks (padding repeats the
+// last row so that it stays inside every operator's domain; padded rows carry weight 0).
+class Dataset {
+ public:
+  Dataset() = default;
+  Dataset(const Table& t, int block_size);
+
+  size_t rows() const { return rows_; }
+  size_t paddedRows() const { return padded_; }
+  int blockSize() const { return block_; }
+  size_t numBlocks() const { return padded_ / block_; }
+  int numInputs() const { return static_cast<int>(inputs_.size()); }
+  int numOutputs() const { return static_cast<int>(targets_.size()); }
+  const float* input(int i) const { return inputs_[i].data(); }
+  const double* target(int o) const { return targets_[o].data(); }  // double ground truth
+  const double* weight() const { return weights_.data(); }           // always present
+  double weightSum() const { return weight_sum_; }
+
+ private:
+  size_t rows_ = 0, padded_ = 0;
+  int block_ = 256;
+  std::vector<std::vector<float>> inputs_;
+  std::vector<std::vector<double>> targets_;
+  std::vector<double> weights_;
+  double weight_sum_ = 0;
+};
+
+using Kernel = void (*)(float* out, const float* a, const float* b, const float* c,
+                        const float* d, int n);
+
+// A decoded program: effective opcodes only, operands as slot numbers.
+// Slots: [0, num_inputs) inputs, then constants, then registers.
+struct BoundProgram {
+  struct Step {
+    Kernel kernel;
+    std::array<int32_t, kMaxArity> src;  // slot per operand (unused ones point at slot 0)
+    int32_t dst;                         // register slot
+  };
+  std::vector<Step> steps;
+  std::vector<float> const_values;  // one per bound constant slot
+  std::vector<int32_t> output_slots;
+  int num_inputs = 0;
+  int num_slots = 0;
+  uint64_t bind_id = 0;  // unique per bind(): lets an Interpreter skip re-broadcasting constants
+
+  void bind(const Program& p, int num_inputs);
+};
+
+Kernel kernelFor(Op op);
+
+class Interpreter {
+ public:
+  explicit Interpreter(int block_size = 256);
+
+  // Evaluates rows [block*bs, (block+1)*bs) and returns one pointer per output, valid until
+  // the next call. Never allocates once the scratch has grown to the largest program.
+  const std::vector<const float*>& evalBlock(const BoundProgram& bp, const Dataset& ds,
+                                             size_t block);
+
+  // Convenience: all outputs for all rows (allocates; not for the hot loop). [output][row]
+  std::vector<std::vector<float>> evaluate(const Program& p, const Dataset& ds);
+
+  int blockSize() const { return block_; }
+
+ private:
+  void reserve(int slots);
+  int block_;
+  int capacity_slots_ = 0;
+  uint64_t filled_id_ = 0;  // bind_id whose constants are broadcast in the scratch
+  std::unique_ptr<float[], void (*)(float*)> scratch_;
+  std::vector<const float*> ptrs_;
+  std::vector<const float*> outs_;
+};
+
+// Double-precision reference evaluation of every row, [output][row]. Same protected
+// semantics (semantics.hpp); used by tests and for final scoring.
+std::vector<std::vector<double>> evaluateReference(const Program& p, const Table& t);
+std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs);
+
+// Naive per-row scalar interpreter (switch per opcode per row), kept as the baseline the
+// benchmarks compare against. Not used by the search.
+void evaluateScalarRows(const Program& p, const Dataset& ds, std::vector<std::vector<float>>& out);
+
+}  // namespace lgp

@@ -1,0 +1,120 @@
+// The three objectives of the search (seed 000 section 5.1), all minimised:
+//  error          RMSE (default), max-abs, MAE or mean relative error against the double
+//                 ground truth, optionally weighted per row. When an output is fitted on a
+//                 transformed target (seed 000 section 4.3), the program's value is mapped
+//                 back through the inverse transform and the error is measured on the
+//                 original. Several outputs combine by mean (default) or max.
+//  cost           sum over effective opcodes of the per-operator cost of a target model.
+//  discontinuity  weighted count of piecewise operators among effective opcodes.
+// A program whose output is NaN or Inf on any row gets error = +inf: it is the worst and
+// never enters a front.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <map>
+#include <optional>
+#include <string_view>
+#include <string>
+#include <vector>
+
+#include "lgp/core/ops.hpp"
+#include "lgp/core/program.hpp"
+#include "lgp/eval/interpreter.hpp"
+
+namespace lgp {
+
+enum class ErrorMetric : uint8_t { Rmse, MaxAbs, Mae, MeanRel };
+enum class TargetTransform : uint8_t { None, Log, Sqrt, Rcp };
+enum class OutputCombine : uint8_t { Mean, Max };
+
+std::string_view toString(ErrorMetric m);
+std::string_view toString(TargetTransform t);
+std::string_view toString(OutputCombine c);
+std::optional<ErrorMetric> errorMetricFromString(std::string_view s);
+std::optional<TargetTransform> targetTransformFromString(std::string_view s);
+std::optional<OutputCombine> outputCombineFromString(std::string_view s);
+
+// Forward map applied to the ground truth before fitting; the program predicts T(y).
+double applyTransform(TargetTransform t, double y);
+// Inverse, applied to predictions before measuring error.
+double invertTransform(TargetTransform t, double v);
+
+// Per-operator costs of a model, after config overrides.
+struct CostModel {
+  CostTarget target = CostTarget::GpuGeneric;
+  std::array<double, kNumOps> cost{};
+  static CostModel preset(CostTarget t);
+  double programCost(const Program& p) const;  // effective opcodes only
+  // Cost of the inverse transforms the emitted code appends (log -> exp, sqrt -> square,
+  // rcp -> rcp), added to every member's cost so fronts stay honest.
+  double transformCost(const std::vector<TargetTransform>& t) const;
+};
+
+struct DiscontinuityModel {
+  std::array<double, kNumOps> weight{};  // default: 1 for piecewise ops, 0 otherwise
+  static DiscontinuityModel defaults();
+  double programDiscontinuity(const Program& p) const;
+};
+
+struct ErrorConfig {
+  ErrorMetric metric = ErrorMetric::Rmse;        // the objective
+  OutputCombine combine = OutputCombine::Mean;   // across outputs
+  std::vector<TargetTransform> transforms;       // per output; empty = none
+  double rel_floor = 1e-6;                       // MeanRel divides by max(|y|, rel_floor)
+};
+
+// Every metric of one output, measured on the original (untransformed) scale.
+struct OutputMetrics {
+  double rmse = std::numeric_limits<double>::infinity();
+  double max_abs = std::numeric_limits<double>::infinity();
+  double mae = std::numeric_limits<double>::infinity();
+  double mean_rel = std::numeric_limits<double>::infinity();
+  double r2 = -std::numeric_limits<double>::infinity();
+};
+
+struct Objectives {
+  double error = std::numeric_limits<double>::infinity();
+  double cost = 0;
+  double discontinuity = 0;
+  bool finite() const { return error < std::numeric_limits<double>::infinity(); }
+};
+
+namespace detail {
+struct ErrorAcc {  // per-output sums over rows, combined in block order
+  double sse = 0, sae = 0, srel = 0, maxabs = 0;
+  float chk = 0;  // becomes NaN if any prediction is NaN or Inf
+};
+}  // namespace detail
+
+// Scores programs against a Dataset with one Interpreter; one instance per thread.
+// The Dataset holds the original targets; with a transform, output o of the model is
+// invertTransform(T_o, program output o), and that is what the error compares.
+class Scorer {
+ public:
+  Scorer(const Dataset& ds, ErrorConfig cfg, int block_size);
+  // The error objective only (fast path used by the search and Nelder-Mead).
+  double error(const Program& p);
+  double error(const BoundProgram& bp);
+  // Every metric per output, float32 path.
+  std::vector<OutputMetrics> metrics(const Program& p);
+
+ private:
+  template <int M>
+  void run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs);
+
+  const Dataset& ds_;
+  ErrorConfig cfg_;
+  Interpreter interp_;
+  BoundProgram bound_;
+  std::vector<detail::ErrorAcc> acc_;  // per-output accumulators, reused
+  std::vector<float> pred_;            // inverse-transformed predictions of one block
+  std::vector<double> ss_tot_;         // weighted total sum of squares per output (for R^2)
+};
+
+// Metrics in double precision via the reference evaluator (the "double check path").
+std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& original,
+                                            const ErrorConfig& cfg);
+double combineError(const std::vector<OutputMetrics>& m, const ErrorConfig& cfg);
+
+}  // namespace lgp

@@ -1,0 +1,144 @@
+// The search: NSGA-II over (error, cost, discontinuity) with a bounded Pareto archive and
+// Nelder-Mead constant refinement (seed 000 sections 3.2.2, 5.1, 5.2).
+//
+// One generation (step()):
+//   1. N offspring, each from binary tournaments on (rank, crowding), two-segment crossover
+//      and micro/macro mutation. Offspring i of generation g draws from an RNG seeded with
+//      hash(seed, g, i), so variation is independent of thread scheduling.
+//   2. Offspring are scored in parallel (OpenMP over programs, one Scorer per thread).
+//   3. A share of offspring gets Nelder-Mead on its effective constants.
+//   4. Parents + offspring are ranked (duplicates of an objective vector go last), and the
+//      best N by (rank, crowding) survive (elitism).
+//   5. Offspring enter the archive; every `archive_period` generations unrefined archive
+//      members are refined and re-inserted.
+// Budgets: generations, evaluations (Nelder-Mead evaluations included), wall time, or a stop
+// request (Ctrl-C); the check happens between generations.
+//
+// Determinism: with the same config, seed and thread count (and no wall-time budget) the
+// front is identical; in fact every per-program computation is sequential, so it is identical
+// for any thread count. checkpoint()/restore() capture everything needed to continue a run
+// so that the resumed run produces the same front as an uninterrupted one.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/config/config.hpp"
+#include "lgp/core/program.hpp"
+#include "lgp/core/table.hpp"
+#include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/objectives.hpp"
+#include "lgp/core/rng.hpp"
+#include "lgp/search/pareto.hpp"
+
+namespace lgp {
+
+struct SearchProgress {
+  int generation = 0;
+  uint64_t evaluations = 0;
+  double elapsed_s = 0;
+  double evals_per_s = 0;
+  size_t front_size = 0;
+  double best_error = 0;                                // lowest finite error in the archive
+  std::vector<std::pair<double, double>> best_at_cost;  // (cost level, best error at <= level)
+  bool finished = false;
+  std::string stop_reason;  // "generations", "evaluations", "wall_time", "stopped"
+};
+
+// A front member with everything the outputs need.
+struct FrontEntry {
+  Program program;                         // introns pruned
+  Objectives obj;                          // as searched (float32 interpreter)
+  std::vector<OutputMetrics> metrics;      // float32 interpreter, per output
+  std::vector<OutputMetrics> metrics_ref;  // double reference evaluator, per output
+  std::array<double, kNumCostTargets> cost_by_target{};
+  std::vector<std::string> infix;          // per output
+};
+
+class Search {
+ public:
+  Search(RunConfig cfg, Table table);
+  ~Search();
+  Search(const Search&) = delete;
+  Search& operator=(const Search&) = delete;
+
+  // Random initial population (generation 0). Called by step() if needed.
+  void initialize();
+  // One generation. No-op once done().
+  void step();
+  bool done() const;
+  // Thread-safe; the run stops after the current generation.
+  void requestStop() { stop_.store(true); }
+
+  // Runs to a budget, calling on_progress every progress_interval_s (and at the end).
+  void run(const std::function<void(const SearchProgress&)>& on_progress = {});
+
+  SearchProgress progress() const;
+  // The archive's non-dominated members, sorted by cost then error, with full metrics.
+  std::vector<FrontEntry> front() const;
+
+  // Full state (config digest, population, archive, counters). restore() rejects a checkpoint
+  // from a different config or table.
+  nlohmann::json checkpoint() const;
+  Status restore(const nlohmann::json& state);
+
+  const RunConfig& config() const { return cfg_; }
+  const Table& table() const { return table_; }
+  const ProgramShape& shape() const { return shape_; }
+  int threads() const { return threads_; }
+
+ private:
+  struct Individual {
+    Program program;
+    Objectives obj;
+    bool refined = false;
+  };
+  void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
+                   uint64_t stream);
+  Objectives score(Scorer& s, const Program& p) const;
+  void refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals) const;
+  void survive(std::vector<Individual>& pool);
+  void rankPopulation();
+  int tournament(Rng& rng) const;
+  void refineArchive();
+  double elapsed() const;
+  std::string stopReason() const;
+  std::string configDigest() const;
+  Scorer& scorer(int thread);
+
+  RunConfig cfg_;
+  Table table_;
+  ProgramShape shape_;
+  ErrorConfig err_cfg_;
+  CostModel cost_;
+  DiscontinuityModel disc_;
+  double transform_cost_ = 0;
+  Dataset ds_;
+  int threads_ = 1;
+
+  std::vector<std::unique_ptr<Scorer>> scorers_;  // one per OpenMP thread
+  std::vector<Individual> pop_;
+  std::vector<int> rank_;
+  std::vector<double> crowd_;
+  Archive archive_;
+  int generation_ = 0;
+  bool initialized_ = false;
+  uint64_t evaluations_ = 0;
+  double elapsed_before_ = 0;  // from restored checkpoints
+  std::chrono::steady_clock::time_point start_;
+  std::atomic<bool> stop_{false};
+  uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
+};
+
+// Loads the table a config names (data.path). Scenes are resolved by the frontends, which
+// link the datasets library; this returns an error for them.
+Expected<Table> loadTableFile(const DataConfig& data, const std::filesystem::path& base_dir);
+
+}  // namespace lgp

@@ -1,0 +1,463 @@
+#include "lgp/config/config.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace lgp {
+
+std::vector<Op> defaultOps() {
+  std::vector<Op> ops;
+  for (const auto& i : allOps())
+    if (i.op != Op::Sin && i.op != Op::Cos) ops.push_back(i.op);
+  return ops;
+}
+
+namespace {
+
+// Raised inside the parser only; parseRunConfig turns it into a Status.
+struct ConfigError {
+  std::string msg;
+};
+
+[[noreturn]] void fail(const std::string& path, const std::string& why) {
+  throw ConfigError{(path.empty() ? "/" : path) + ": " + why};
+}
+
+std::string typeName(const nlohmann::json& v) { return v.type_name(); }
+
+// Reads one JSON object, remembering which keys were consumed so unknown keys are reported.
+class Obj {
+ public:
+  Obj(const nlohmann::json& j, std::string path) : j_(j), path_(std::move(path)) {
+    if (!j_.is_object()) fail(path_, "must be an object (got " + typeName(j_) + ")");
+  }
+  ~Obj() = default;
+  bool has(const std::string& k) {
+    seen_.insert(k);
+    return j_.contains(k);
+  }
+  const nlohmann::json& at(const std::string& k) {
+    seen_.insert(k);
+    return j_.at(k);
+  }
+  std::string path(const std::string& k) const { return path_ + "/" + k; }
+  void finish() const {
+    for (auto it = j_.begin(); it != j_.end(); ++it)
+      if (!seen_.count(it.key())) fail(path_ + "/" + it.key(), "unknown key");
+  }
+
+  void integer(const std::string& k, int& out, long long lo, long long hi) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_number_integer())
+      fail(path(k), "must be an integer (got " + typeName(v) + " " + v.dump() + ")");
+    const long long x = v.get<long long>();
+    if (x < lo || x > hi)
+      fail(path(k), "must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "] (got " +
+                        std::to_string(x) + ")");
+    out = static_cast<int>(x);
+  }
+  void uinteger(const std::string& k, uint64_t& out) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() && v.get<long long>() < 0))
+      fail(path(k), "must be a non-negative integer (got " + v.dump() + ")");
+    out = v.get<uint64_t>();
+  }
+  void number(const std::string& k, double& out, double lo, double hi, bool open_lo = false) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_number()) fail(path(k), "must be a number (got " + typeName(v) + " " + v.dump() + ")");
+    const double x = v.get<double>();
+    if (!std::isfinite(x) || x < lo || x > hi || (open_lo && x == lo)) {
+      std::ostringstream os;
+      os << "must be in " << (open_lo ? "(" : "[") << lo << ", " << hi << "] (got " << x << ")";
+      fail(path(k), os.str());
+    }
+    out = x;
+  }
+  void string(const std::string& k, std::string& out) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_string()) fail(path(k), "must be a string (got " + typeName(v) + ")");
+    out = v.get<std::string>();
+  }
+  void strings(const std::string& k, std::vector<std::string>& out) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_array()) fail(path(k), "must be an array of strings (got " + typeName(v) + ")");
+    out.clear();
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_string()) fail(path(k) + "/" + std::to_string(i), "must be a string");
+      out.push_back(v[i].get<std::string>());
+    }
+  }
+  template <class E, class F>
+  void enumeration(const std::string& k, E& out, F from, const std::string& choices) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_string()) fail(path(k), "must be one of " + choices);
+    auto e = from(v.get<std::string>());
+    if (!e) fail(path(k), "'" + v.get<std::string>() + "' is not one of " + choices);
+    out = *e;
+  }
+
+ private:
+  const nlohmann::json& j_;
+  std::string path_;
+  std::set<std::string> seen_;
+};
+
+std::string opChoices() {
+  std::string s;
+  for (const auto& i : allOps()) s += (s.empty() ? "" : ", ") + std::string(i.name);
+  return s;
+}
+
+Op parseOp(const nlohmann::json& v, const std::string& path) {
+  if (!v.is_string()) fail(path, "must be an operator name");
+  auto op = opFromString(v.get<std::string>());
+  if (!op) fail(path, "unknown operator '" + v.get<std::string>() + "' (known: " + opChoices() + ")");
+  return *op;
+}
+
+std::map<Op, double> opNumberMap(Obj& o, const std::string& k) {
+  std::map<Op, double> out;
+  if (!o.has(k)) return out;
+  const auto& v = o.at(k);
+  if (!v.is_object()) fail(o.path(k), "must be an object of operator -> number");
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string p = o.path(k) + "/" + it.key();
+    const Op op = parseOp(nlohmann::json(it.key()), p);
+    if (!it.value().is_number() || !(it.value().get<double>() >= 0) ||
+        !std::isfinite(it.value().get<double>()))
+      fail(p, "must be a finite number >= 0");
+    out[op] = it.value().get<double>();
+  }
+  return out;
+}
+
+void parseData(const nlohmann::json& j, DataConfig& d) {
+  Obj o(j, "/data");
+  o.string("path", d.path);
+  o.string("scene", d.scene);
+  o.strings("inputs", d.inputs);
+  o.strings("outputs", d.outputs);
+  o.string("weights", d.weights);
+  o.string("cache_dir", d.cache_dir);
+  if (o.has("transforms")) {
+    const auto& t = o.at("transforms");
+    if (!t.is_object()) fail("/data/transforms", "must be an object of output -> transform");
+    for (auto it = t.begin(); it != t.end(); ++it) {
+      const std::string p = "/data/transforms/" + it.key();
+      if (!it.value().is_string()) fail(p, "must be one of none, log, sqrt, rcp");
+      auto tr = targetTransformFromString(it.value().get<std::string>());
+      if (!tr) fail(p, "'" + it.value().get<std::string>() + "' is not one of none, log, sqrt, rcp");
+      d.transforms[it.key()] = *tr;
+    }
+  }
+  o.finish();
+  if (d.path.empty() == d.scene.empty()) fail("/data", "exactly one of \"path\" and \"scene\" is required");
+}
+
+void parseProgram(const nlohmann::json& j, ProgramConfig& p) {
+  Obj o(j, "/program");
+  o.integer("max_length", p.max_length, 1, 255);
+  o.integer("constants", p.num_constants, 0, 255);
+  if (o.has("output_mode")) {
+    const auto& v = o.at("output_mode");
+    if (v == "last") p.output_mode = OutputMode::Last;
+    else if (v == "designated") p.output_mode = OutputMode::Designated;
+    else fail("/program/output_mode", "must be \"last\" or \"designated\"");
+  }
+  if (o.has("ops")) {
+    const auto& v = o.at("ops");
+    if (!v.is_array() || v.empty()) fail("/program/ops", "must be a non-empty array of operator names");
+    p.ops.clear();
+    std::set<Op> seen;
+    for (size_t i = 0; i < v.size(); ++i) {
+      const Op op = parseOp(v[i], "/program/ops/" + std::to_string(i));
+      if (seen.insert(op).second) p.ops.push_back(op);
+    }
+  }
+  o.integer("init_min_length", p.init_min_length, 1, 255);
+  o.integer("init_max_length", p.init_max_length, 1, 255);
+  o.number("const_min", p.const_min, -1e30, 1e30);
+  o.number("const_max", p.const_max, -1e30, 1e30);
+  o.finish();
+}
+
+void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
+  Obj o(j, "/objectives");
+  o.enumeration("error", c.metric, errorMetricFromString, "rmse, max_abs, mae, mean_rel");
+  o.enumeration("combine", c.combine, outputCombineFromString, "mean, max");
+  o.number("rel_floor", c.rel_floor, 0, 1e30, true);
+  std::string targets;
+  for (auto n : kCostTargetNames) targets += (targets.empty() ? "" : ", ") + std::string(n);
+  o.enumeration("cost_model", c.cost_model, costTargetFromString, targets);
+  c.cost_overrides = opNumberMap(o, "cost_overrides");
+  c.discontinuity_weights = opNumberMap(o, "discontinuity_weights");
+  o.finish();
+}
+
+void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
+  Obj o(j, "/search/refine");
+  o.number("offspring_share", r.offspring_share, 0, 1);
+  o.integer("archive_period", r.archive_period, 0, 1 << 30);
+  o.integer("archive_max", r.archive_max, 0, 1 << 20);
+  o.integer("max_evaluations", r.nm.max_evaluations, 1, 1 << 30);
+  o.integer("restarts", r.nm.restarts, 0, 1000);
+  o.number("initial_step", r.nm.initial_step, 0, 1e6, true);
+  o.number("tolerance", r.nm.tolerance, 0, 1);
+  o.finish();
+}
+
+void parseArchive(const nlohmann::json& j, ArchiveConfig& a) {
+  Obj o(j, "/search/archive");
+  o.integer("max_size", a.max_size, 1, 1 << 20);
+  o.number("eps_log10_error", a.eps_log10_error, 0, 10);
+  o.number("eps_cost", a.eps_cost, 0, 1e6);
+  o.number("eps_discontinuity", a.eps_discontinuity, 0, 1e6);
+  o.finish();
+}
+
+void parseVariation(const nlohmann::json& j, VariationConfig& v) {
+  Obj o(j, "/search/variation");
+  o.number("crossover_rate", v.crossover_rate, 0, 1);
+  o.number("macro_rate", v.macro_rate, 0, 1);
+  o.number("micro_rate", v.micro_rate, 0, 1);
+  o.integer("micro_max", v.micro_max, 1, 64);
+  o.number("constant_sigma", v.constant_sigma, 0, 1e6);
+  o.number("effective_bias", v.effective_bias, 0, 1);
+  o.finish();
+}
+
+void parseSearch(const nlohmann::json& j, SearchConfig& s) {
+  Obj o(j, "/search");
+  o.integer("population", s.population, 4, 1 << 20);
+  o.integer("generations", s.generations, 0, 1 << 30);
+  o.uinteger("max_evaluations", s.max_evaluations);
+  o.number("wall_time_s", s.wall_time_s, 0, 1e9);
+  o.uinteger("seed", s.seed);
+  o.integer("threads", s.threads, 0, 4096);
+  o.integer("tournament_size", s.tournament_size, 1, 64);
+  if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
+  if (o.has("refine")) parseNm(o.at("refine"), s.refine);
+  if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
+  o.finish();
+}
+
+void parseEval(const nlohmann::json& j, EvalConfig& e) {
+  Obj o(j, "/eval");
+  o.integer("block_size", e.block_size, 16, 16384);
+  o.finish();
+  if (e.block_size % 16 != 0)
+    fail("/eval/block_size", "must be a multiple of 16 (got " + std::to_string(e.block_size) + ")");
+}
+
+void parseOutput(const nlohmann::json& j, OutputConfig& out) {
+  Obj o(j, "/output");
+  o.string("front_json", out.front_json);
+  o.string("front_csv", out.front_csv);
+  o.number("progress_interval_s", out.progress_interval_s, 0, 1e6);
+  if (o.has("progress_cost_levels")) {
+    const auto& v = o.at("progress_cost_levels");
+    if (!v.is_array()) fail("/output/progress_cost_levels", "must be an array of numbers");
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_number() || !(v[i].get<double>() >= 0))
+        fail("/output/progress_cost_levels/" + std::to_string(i), "must be a number >= 0");
+      out.progress_cost_levels.push_back(v[i].get<double>());
+    }
+  }
+  o.finish();
+}
+
+}  // namespace
+
+Status RunConfig::validate() const {
+  if (data.path.empty() == data.scene.empty())
+    return Status::error("/data: exactly one of \"path\" and \"scene\" is required");
+  if (program.max_length < 1 || program.max_length > 255)
+    return Status::error("/program/max_length: must be in [1, 255]");
+  if (program.init_min_length > program.init_max_length)
+    return Status::error("/program/init_min_length: must be <= init_max_length");
+  if (program.init_min_length > program.max_length)
+    return Status::error("/program/init_min_length: must be <= max_length");
+  if (program.const_min > program.const_max)
+    return Status::error("/program/const_min: must be <= const_max");
+  if (search.population < 4) return Status::error("/search/population: must be >= 4");
+  if (search.generations == 0 && search.max_evaluations == 0 && search.wall_time_s == 0)
+    return Status::error("/search: set at least one budget (generations, max_evaluations or wall_time_s)");
+  if (auto s = search.archive.validate(); !s) return Status::error("/search/archive/" + s.message());
+  if (auto s = search.refine.nm.validate(); !s) return Status::error("/search/refine/" + s.message());
+  if (eval.block_size < 16 || eval.block_size % 16 != 0)
+    return Status::error("/eval/block_size: must be a multiple of 16 in [16, 16384]");
+  if (output.front_json.empty()) return Status::error("/output/front_json: must not be empty");
+  return Status::ok();
+}
+
+ProgramShape RunConfig::shape(int num_inputs, int num_outputs) const {
+  ProgramShape s;
+  s.num_inputs = num_inputs;
+  s.num_outputs = num_outputs;
+  s.max_length = std::max(program.max_length, num_outputs);
+  s.num_constants = program.num_constants;
+  s.output_mode = program.output_mode;
+  s.ops = OpSet();
+  for (Op op : program.ops.empty() ? defaultOps() : program.ops) s.ops.insert(op);
+  return s;
+}
+
+CostModel RunConfig::costModel() const {
+  CostModel m = CostModel::preset(objectives.cost_model);
+  for (const auto& [op, c] : objectives.cost_overrides) m.cost[static_cast<int>(op)] = c;
+  return m;
+}
+
+DiscontinuityModel RunConfig::discontinuityModel() const {
+  DiscontinuityModel m = DiscontinuityModel::defaults();
+  for (const auto& [op, w] : objectives.discontinuity_weights) m.weight[static_cast<int>(op)] = w;
+  return m;
+}
+
+ErrorConfig RunConfig::errorConfig(const std::vector<std::string>& output_names) const {
+  ErrorConfig e;
+  e.metric = objectives.metric;
+  e.combine = objectives.combine;
+  e.rel_floor = objectives.rel_floor;
+  for (const auto& n : output_names) {
+    auto it = data.transforms.find(n);
+    e.transforms.push_back(it == data.transforms.end() ? TargetTransform::None : it->second);
+  }
+  return e;
+}
+
+Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesystem::path& base_dir) {
+  RunConfig c;
+  c.base_dir = base_dir;
+  try {
+    Obj o(j, "");
+    if (!o.has("data")) fail("/data", "required (an object with \"path\" or \"scene\")");
+    parseData(o.at("data"), c.data);
+    if (o.has("program")) parseProgram(o.at("program"), c.program);
+    if (o.has("objectives")) parseObjectives(o.at("objectives"), c.objectives);
+    if (o.has("search")) parseSearch(o.at("search"), c.search);
+    if (o.has("eval")) parseEval(o.at("eval"), c.eval);
+    if (o.has("output")) parseOutput(o.at("output"), c.output);
+    if (o.has("references")) {
+      const auto& r = o.at("references");
+      if (!r.is_array()) fail("/references", "must be an array of {\"name\", \"expr\"} objects");
+      for (size_t i = 0; i < r.size(); ++i) {
+        const std::string p = "/references/" + std::to_string(i);
+        if (!r[i].is_object() || !r[i].contains("expr"))
+          fail(p, "must be an object with \"name\" and \"expr\"");
+      }
+      c.references = r;
+    }
+    o.finish();
+  } catch (const ConfigError& e) {
+    return Status::error(e.msg);
+  }
+  for (const auto& [name, _] : c.data.transforms)
+    if (!c.data.outputs.empty() &&
+        std::find(c.data.outputs.begin(), c.data.outputs.end(), name) == c.data.outputs.end())
+      return Status::error("/data/transforms/" + name + ": not one of data.outputs");
+  if (auto s = c.validate(); !s) return s;
+  return c;
+}
+
+Expected<RunConfig> loadRunConfig(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) return Status::error(path.string() + ": cannot open config");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(path.string() + ": invalid JSON: " + e.what());
+  }
+  auto base = path.parent_path();
+  if (base.empty()) base = ".";
+  auto c = parseRunConfig(j, base);
+  if (!c) return Status::error(path.string() + ": " + c.error());
+  return c;
+}
+
+nlohmann::json toJson(const RunConfig& c) {
+  using nlohmann::json;
+  json data = {{"inputs", c.data.inputs}, {"outputs", c.data.outputs}};
+  if (!c.data.path.empty()) data["path"] = c.data.path;
+  if (!c.data.scene.empty()) data["scene"] = c.data.scene;
+  if (!c.data.weights.empty()) data["weights"] = c.data.weights;
+  if (!c.data.cache_dir.empty()) data["cache_dir"] = c.data.cache_dir;
+  if (!c.data.transforms.empty()) {
+    json t = json::object();
+    for (const auto& [k, v] : c.data.transforms) t[k] = std::string(toString(v));
+    data["transforms"] = t;
+  }
+  json ops = json::array();
+  for (Op op : c.program.ops.empty() ? defaultOps() : c.program.ops) ops.push_back(std::string(opName(op)));
+  auto opMap = [](const std::map<Op, double>& m) {
+    json o = json::object();
+    for (const auto& [op, v] : m) o[std::string(opName(op))] = v;
+    return o;
+  };
+  const auto& s = c.search;
+  return {
+      {"data", data},
+      {"program",
+       {{"max_length", c.program.max_length},
+        {"constants", c.program.num_constants},
+        {"output_mode", c.program.output_mode == OutputMode::Last ? "last" : "designated"},
+        {"ops", ops},
+        {"init_min_length", c.program.init_min_length},
+        {"init_max_length", c.program.init_max_length},
+        {"const_min", c.program.const_min},
+        {"const_max", c.program.const_max}}},
+      {"objectives",
+       {{"error", std::string(toString(c.objectives.metric))},
+        {"combine", std::string(toString(c.objectives.combine))},
+        {"rel_floor", c.objectives.rel_floor},
+        {"cost_model", std::string(toString(c.objectives.cost_model))},
+        {"cost_overrides", opMap(c.objectives.cost_overrides)},
+        {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)}}},
+      {"search",
+       {{"population", s.population},
+        {"generations", s.generations},
+        {"max_evaluations", s.max_evaluations},
+        {"wall_time_s", s.wall_time_s},
+        {"seed", s.seed},
+        {"threads", s.threads},
+        {"tournament_size", s.tournament_size},
+        {"variation",
+         {{"crossover_rate", s.variation.crossover_rate},
+          {"macro_rate", s.variation.macro_rate},
+          {"micro_rate", s.variation.micro_rate},
+          {"micro_max", s.variation.micro_max},
+          {"constant_sigma", s.variation.constant_sigma},
+          {"effective_bias", s.variation.effective_bias}}},
+        {"refine",
+         {{"offspring_share", s.refine.offspring_share},
+          {"archive_period", s.refine.archive_period},
+          {"archive_max", s.refine.archive_max},
+          {"max_evaluations", s.refine.nm.max_evaluations},
+          {"restarts", s.refine.nm.restarts},
+          {"initial_step", s.refine.nm.initial_step},
+          {"tolerance", s.refine.nm.tolerance}}},
+        {"archive",
+         {{"max_size", s.archive.max_size},
+          {"eps_log10_error", s.archive.eps_log10_error},
+          {"eps_cost", s.archive.eps_cost},
+          {"eps_discontinuity", s.archive.eps_discontinuity}}}}},
+      {"eval", {{"block_size", c.eval.block_size}}},
+      {"output",
+       {{"front_json", c.output.front_json},
+        {"front_csv", c.output.front_csv},
+        {"progress_interval_s", c.output.progress_interval_s},
+        {"progress_cost_levels", c.output.progress_cost_levels}}},
+      {"references", c.references}};
+}
+
+}  // namespace lgp

@@ -1,0 +1,288 @@
+#include "lgp/core/table.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace lgp {
+
+Status Table::validate() const {
+  if (inputs.empty()) return Status::error("table has no input columns");
+  if (outputs.empty()) return Status::error("table has no output columns");
+  if (input_names.size() != inputs.size() || output_names.size() != outputs.size())
+    return Status::error("table column names and columns differ in count");
+  const size_t n = rows();
+  if (n == 0) return Status::error("table has no rows");
+  std::set<std::string> seen;
+  auto check = [&](const std::string& name, const std::vector<double>& col) -> Status {
+    if (!seen.insert(name).second) return Status::error("column '" + name + "' appears twice");
+    if (col.size() != n)
+      return Status::error("column '" + name + "' has " + std::to_string(col.size()) +
+                           " rows, expected " + std::to_string(n));
+    for (size_t r = 0; r < n; ++r)
+      if (!std::isfinite(col[r]))
+        return Status::error("column '" + name + "', row " + std::to_string(r + 1) +
+                             ": value is not finite");
+    return Status::ok();
+  };
+  for (size_t i = 0; i < inputs.size(); ++i)
+    if (auto s = check(input_names[i], inputs[i]); !s) return s;
+  for (size_t i = 0; i < outputs.size(); ++i)
+    if (auto s = check(output_names[i], outputs[i]); !s) return s;
+  if (!weights.empty()) {
+    if (weights.size() != n) return Status::error("weights have the wrong number of rows");
+    double sum = 0;
+    for (size_t r = 0; r < n; ++r) {
+      if (!std::isfinite(weights[r]) || weights[r] < 0)
+        return Status::error("weights, row " + std::to_string(r + 1) +
+                             ": must be finite and >= 0");
+      sum += weights[r];
+    }
+    if (!(sum > 0)) return Status::error("weights sum to zero");
+  }
+  return Status::ok();
+}
+
+int RawTable::find(const std::string& name) const {
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+namespace {
+
+std::string trim(const std::string& s) {
+  size_t b = 0, e = s.size();
+  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r' || s[b] == '"')) ++b;
+  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r' || s[e - 1] == '"')) --e;
+  return s.substr(b, e - b);
+}
+
+std::vector<std::string> splitCsv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char ch : line) {
+    if (ch == ',') {
+      out.push_back(trim(cur));
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  out.push_back(trim(cur));
+  return out;
+}
+
+}  // namespace
+
+Expected<RawTable> readCsv(const std::filesystem::path& path) {
+  const std::string f = path.string();
+  std::ifstream in(path);
+  if (!in) return Status::error(f + ": cannot open file");
+  RawTable t;
+  std::string line;
+  size_t lineno = 0;
+  // Header (skipping blank and '#' comment lines).
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (trim(line).empty() || trim(line)[0] == '#') continue;
+    t.names = splitCsv(line);
+    break;
+  }
+  if (t.names.empty()) return Status::error(f + ": empty file, expected a header row");
+  std::set<std::string> seen;
+  for (size_t c = 0; c < t.names.size(); ++c) {
+    if (t.names[c].empty())
+      return Status::error(f + ": header, column " + std::to_string(c + 1) + ": empty name");
+    if (!seen.insert(t.names[c]).second)
+      return Status::error(f + ": header, column " + std::to_string(c + 1) + " ('" +
+                           t.names[c] + "'): duplicate name");
+  }
+  t.columns.resize(t.names.size());
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (trim(line).empty() || trim(line)[0] == '#') continue;
+    const auto cells = splitCsv(line);
+    if (cells.size() != t.names.size())
+      return Status::error(f + ": line " + std::to_string(lineno) + ": " +
+                           std::to_string(cells.size()) + " fields, header has " +
+                           std::to_string(t.names.size()));
+    for (size_t c = 0; c < cells.size(); ++c) {
+      const std::string& s = cells[c];
+      char* end = nullptr;
+      errno = 0;
+      const double v = s.empty() ? NAN : std::strtod(s.c_str(), &end);
+      if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v) || errno == ERANGE)
+        return Status::error(f + ": line " + std::to_string(lineno) + ", column " +
+                             std::to_string(c + 1) + " ('" + t.names[c] + "'): '" + s +
+                             "' is not a finite number");
+      t.columns[c].push_back(v);
+    }
+  }
+  if (t.columns[0].empty()) return Status::error(f + ": no data rows after the header");
+  return t;
+}
+
+Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& f) {
+  if (!j.is_object()) return Status::error(f + ": a JSON table must be an object");
+  if (j.contains("format") && j["format"] != "lgp-table/1")
+    return Status::error(f + ": /format: unsupported '" + j["format"].dump() +
+                         "', expected \"lgp-table/1\"");
+  if (!j.contains("columns") || !j["columns"].is_object())
+    return Status::error(f + ": /columns: required object of name -> array of numbers");
+  RawTable t;
+  size_t n = 0;
+  bool first = true;
+  for (auto it = j["columns"].begin(); it != j["columns"].end(); ++it) {
+    const std::string at = f + ": /columns/" + it.key();
+    if (!it.value().is_array()) return Status::error(at + ": must be an array of numbers");
+    std::vector<double> col;
+    col.reserve(it.value().size());
+    size_t r = 0;
+    for (const auto& v : it.value()) {
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        return Status::error(at + "/" + std::to_string(r) + " (row " + std::to_string(r + 1) +
+                             "): not a finite number");
+      col.push_back(v.get<double>());
+      ++r;
+    }
+    if (first) {
+      n = col.size();
+      first = false;
+    } else if (col.size() != n) {
+      return Status::error(at + ": has " + std::to_string(col.size()) + " rows, others have " +
+                           std::to_string(n));
+    }
+    t.names.push_back(it.key());
+    t.columns.push_back(std::move(col));
+  }
+  if (t.names.empty() || n == 0) return Status::error(f + ": /columns: no data");
+  auto names = [&](const char* key, std::vector<std::string>& out) -> Status {
+    if (!j.contains(key)) return Status::ok();
+    if (!j[key].is_array()) return Status::error(f + ": /" + key + ": must be an array of names");
+    for (const auto& v : j[key]) {
+      if (!v.is_string()) return Status::error(f + ": /" + key + ": must be an array of names");
+      if (t.find(v.get<std::string>()) < 0)
+        return Status::error(f + ": /" + key + ": no column named '" + v.get<std::string>() + "'");
+      out.push_back(v.get<std::string>());
+    }
+    return Status::ok();
+  };
+  if (auto s = names("inputs", t.default_inputs); !s) return s;
+  if (auto s = names("outputs", t.default_outputs); !s) return s;
+  if (j.contains("weights")) {
+    if (!j["weights"].is_array() || j["weights"].size() != n)
+      return Status::error(f + ": /weights: must be an array with one number per row");
+    for (size_t r = 0; r < n; ++r) {
+      const auto& v = j["weights"][r];
+      if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>()))
+        return Status::error(f + ": /weights/" + std::to_string(r) + ": must be finite and >= 0");
+      t.weights.push_back(v.get<double>());
+    }
+  }
+  if (j.contains("meta")) t.meta = j["meta"];
+  return t;
+}
+
+Expected<RawTable> readJsonTable(const std::filesystem::path& path) {
+  const std::string f = path.string();
+  std::ifstream in(path);
+  if (!in) return Status::error(f + ": cannot open file");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(f + ": invalid JSON: " + e.what());
+  }
+  return parseJsonTable(j, f);
+}
+
+Expected<RawTable> readTableFile(const std::filesystem::path& path) {
+  auto ext = path.extension().string();
+  for (auto& c : ext) c = static_cast<char>(std::tolower(c));
+  if (ext == ".csv") return readCsv(path);
+  return readJsonTable(path);
+}
+
+Expected<Table> selectColumns(const RawTable& raw, const std::vector<std::string>& inputs,
+                              const std::vector<std::string>& outputs,
+                              const std::string& weight_column, const std::string& origin) {
+  Table t;
+  t.meta = raw.meta;
+  const auto& in_names = inputs.empty() ? raw.default_inputs : inputs;
+  const auto& out_names = outputs.empty() ? raw.default_outputs : outputs;
+  if (in_names.empty())
+    return Status::error(origin + ": no inputs named (set data.inputs in the config)");
+  if (out_names.empty())
+    return Status::error(origin + ": no outputs named (set data.outputs in the config)");
+  for (const auto& n : in_names) {
+    const int c = raw.find(n);
+    if (c < 0) return Status::error(origin + ": no column named '" + n + "' (input)");
+    t.input_names.push_back(n);
+    t.inputs.push_back(raw.columns[c]);
+  }
+  for (const auto& n : out_names) {
+    const int c = raw.find(n);
+    if (c < 0) return Status::error(origin + ": no column named '" + n + "' (output)");
+    t.output_names.push_back(n);
+    t.outputs.push_back(raw.columns[c]);
+  }
+  if (!weight_column.empty()) {
+    const int c = raw.find(weight_column);
+    if (c < 0) return Status::error(origin + ": no column named '" + weight_column + "' (weights)");
+    t.weights = raw.columns[c];
+  } else {
+    t.weights = raw.weights;
+  }
+  if (auto s = t.validate(); !s) return Status::error(origin + ": " + s.message());
+  return t;
+}
+
+nlohmann::json toJson(const Table& t) {
+  nlohmann::json cols = nlohmann::json::object();
+  for (size_t i = 0; i < t.inputs.size(); ++i) cols[t.input_names[i]] = t.inputs[i];
+  for (size_t i = 0; i < t.outputs.size(); ++i) cols[t.output_names[i]] = t.outputs[i];
+  nlohmann::json j = {{"format", "lgp-table/1"},
+                      {"inputs", t.input_names},
+                      {"outputs", t.output_names},
+                      {"columns", cols},
+                      {"meta", t.meta}};
+  if (!t.weights.empty()) j["weights"] = t.weights;
+  return j;
+}
+
+Status writeCsv(const Table& t, const std::filesystem::path& path) {
+  std::ofstream out(path);
+  if (!out) return Status::error(path.string() + ": cannot write");
+  std::vector<const std::vector<double>*> cols;
+  std::vector<std::string> names;
+  for (size_t i = 0; i < t.inputs.size(); ++i) {
+    cols.push_back(&t.inputs[i]);
+    names.push_back(t.input_names[i]);
+  }
+  for (size_t i = 0; i < t.outputs.size(); ++i) {
+    cols.push_back(&t.outputs[i]);
+    names.push_back(t.output_names[i]);
+  }
+  if (!t.weights.empty()) {
+    cols.push_back(&t.weights);
+    names.push_back("weight");
+  }
+  for (size_t c = 0; c < names.size(); ++c) out << (c ? "," : "") << names[c];
+  out << "\n";
+  char buf[64];
+  for (size_t r = 0; r < t.rows(); ++r) {
+    for (size_t c = 0; c < cols.size(); ++c) {
+      std::snprintf(buf, sizeof(buf), "%.17g", (*cols[c])[r]);
+      out << (c ? "," : "") << buf;
+    }
+    out << "\n";
+  }
+  if (!out) return Status::error(path.string() + ": write failed");
+  return Status::ok();
+}
+
+}  // namespace lgp

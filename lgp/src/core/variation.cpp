@@ -1,0 +1,248 @@
+#include "lgp/core/variation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+namespace lgp {
+
+namespace {
+
+std::vector<Op> allowedOps(const ProgramShape& shape) {
+  std::vector<Op> ops;
+  for (const auto& i : allOps())
+    if (shape.ops.contains(i.op)) ops.push_back(i.op);
+  if (ops.empty()) ops.push_back(Op::Add);
+  return ops;
+}
+
+Op randomOp(const ProgramShape& shape, Rng& rng) {
+  // Rebuilt per call would allocate; cache per distinct op set (bits) in a tiny table.
+  thread_local uint32_t cached_bits = 0xffffffffu;
+  thread_local std::vector<Op> cached;
+  if (cached_bits != shape.ops.bits()) {
+    cached = allowedOps(shape);
+    cached_bits = shape.ops.bits();
+  }
+  return cached[rng.below(static_cast<uint32_t>(cached.size()))];
+}
+
+// Remaps a reference that became invalid at `pos` (points at or after itself).
+Operand fixOperand(Operand o, int pos, const ProgramShape& shape, Rng& rng) {
+  if (o.kind != OperandKind::Reg || o.index < pos) return o;
+  if (pos == 0) return randomOperand(shape, 0, rng);
+  o.index = static_cast<uint8_t>(o.index % pos);
+  return o;
+}
+
+void repairAll(Program& p, const ProgramShape& shape, Rng& rng) {
+  for (int i = 0; i < static_cast<int>(p.code.size()); ++i)
+    for (int a = 0; a < kMaxArity; ++a) p.code[i].args[a] = fixOperand(p.code[i].args[a], i, shape, rng);
+  syncOutputs(p, shape);
+}
+
+}  // namespace
+
+Operand randomOperand(const ProgramShape& shape, int position, Rng& rng) {
+  Operand o;
+  const double u = rng.uniform();
+  // Prefer wiring to earlier opcodes (builds deep DAGs), then inputs, then constants.
+  const bool can_reg = position > 0;
+  const bool can_const = shape.num_constants > 0;
+  if (can_reg && u < 0.5) {
+    o.kind = OperandKind::Reg;
+    // Bias towards recent opcodes, which keeps more of the program effective.
+    const int back = std::min(position, 1 + static_cast<int>(rng.below(std::min(position, 8))));
+    o.index = static_cast<uint8_t>(rng.chance(0.7) ? position - back : rng.below(position));
+  } else if (can_const && u > (can_reg ? 0.8 : 0.7)) {
+    o.kind = OperandKind::Const;
+    o.index = static_cast<uint8_t>(rng.below(shape.num_constants));
+  } else {
+    o.kind = OperandKind::Var;
+    o.index = static_cast<uint8_t>(rng.below(std::max(1, shape.num_inputs)));
+  }
+  return o;
+}
+
+Instr randomInstr(const ProgramShape& shape, int position, Rng& rng) {
+  Instr ins;
+  ins.op = randomOp(shape, rng);
+  for (int a = 0; a < arity(ins.op); ++a) ins.args[a] = randomOperand(shape, position, rng);
+  return ins;
+}
+
+Program randomProgram(const ProgramShape& shape, const InitConfig& init, Rng& rng) {
+  Program p;
+  const int lo = std::clamp(init.min_length, std::max(1, shape.num_outputs), shape.max_length);
+  const int hi = std::clamp(init.max_length, lo, shape.max_length);
+  const int len = rng.range(lo, hi);
+  for (int i = 0; i < len; ++i) p.code.push_back(randomInstr(shape, i, rng));
+  p.constants.resize(shape.num_constants);
+  for (auto& c : p.constants) {
+    // A few exact small constants help the search find 1 - x, 2^x, x/2 and the like.
+    if (rng.chance(0.25)) {
+      static constexpr float kNice[] = {0.5f, 1.0f, 2.0f, -1.0f, 0.25f, 3.0f};
+      c = kNice[rng.below(6)];
+    } else {
+      c = static_cast<float>(rng.uniform(init.const_min, init.const_max));
+    }
+  }
+  syncOutputs(p, shape);
+  if (shape.output_mode == OutputMode::Designated) {
+    const int n = static_cast<int>(p.code.size());
+    for (size_t k = 0; k < p.outputs.size(); ++k)
+      p.outputs[k] = static_cast<uint8_t>(n - static_cast<int>(p.outputs.size()) + static_cast<int>(k));
+  }
+  return p;
+}
+
+Program crossover(const Program& a, const Program& b, const ProgramShape& shape, Rng& rng) {
+  const int na = static_cast<int>(a.code.size());
+  const int nb = static_cast<int>(b.code.size());
+  // Segment [i, j) of a is replaced by segment [k, l) of b.
+  int i = rng.below(na);
+  int j = i + 1 + static_cast<int>(rng.below(std::min(na - i, 8)));
+  int k = rng.below(nb);
+  int l = k + 1 + static_cast<int>(rng.below(std::min(nb - k, 8)));
+  const int min_len = std::max(1, shape.num_outputs);
+  int new_len = na - (j - i) + (l - k);
+  if (new_len > shape.max_length) l -= new_len - shape.max_length;
+  if (l <= k) l = k + 1;
+  new_len = na - (j - i) + (l - k);
+  if (new_len > shape.max_length || new_len < min_len) return a;
+  const int delta = (l - k) - (j - i);
+
+  Program c;
+  c.constants = a.constants;
+  c.code.reserve(new_len);
+  for (int p = 0; p < i; ++p) c.code.push_back(a.code[p]);
+  for (int p = k; p < l; ++p) {
+    Instr ins = b.code[p];
+    for (int q = 0; q < arity(ins.op); ++q) {
+      Operand& o = ins.args[q];
+      if (o.kind == OperandKind::Reg && o.index >= k) o.index = static_cast<uint8_t>(o.index - k + i);
+    }
+    c.code.push_back(ins);
+  }
+  for (int p = j; p < na; ++p) {
+    Instr ins = a.code[p];
+    for (int q = 0; q < arity(ins.op); ++q) {
+      Operand& o = ins.args[q];
+      if (o.kind != OperandKind::Reg) continue;
+      if (o.index >= j) {
+        o.index = static_cast<uint8_t>(o.index + delta);
+      } else if (o.index >= i) {
+        // Pointed into the replaced segment: point at the same relative place in the new one.
+        const int seg = l - k;
+        o.index = static_cast<uint8_t>(i + (o.index - i) % seg);
+      }
+    }
+    c.code.push_back(ins);
+  }
+  // Constants: mix slots from b with probability 1/2 each (constants are part of the genome).
+  for (size_t s = 0; s < c.constants.size() && s < b.constants.size(); ++s)
+    if (rng.chance(0.5)) c.constants[s] = b.constants[s];
+  c.outputs = a.outputs;
+  if (shape.output_mode == OutputMode::Designated)
+    for (auto& o : c.outputs)
+      if (o >= j) o = static_cast<uint8_t>(o + delta);
+  repairAll(c, shape, rng);
+  return c;
+}
+
+void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
+                 double effective_bias) {
+  const int n = static_cast<int>(p.code.size());
+  int pos;
+  if (rng.chance(effective_bias)) {
+    const auto eff = effectiveIndices(p);
+    pos = eff.empty() ? n - 1 : eff[rng.below(static_cast<uint32_t>(eff.size()))];
+  } else {
+    pos = static_cast<int>(rng.below(n));
+  }
+  Instr& ins = p.code[pos];
+  const double u = rng.uniform();
+  if (u < 0.3) {
+    // Operator change; keep the operands that still apply, fill new ones randomly.
+    const int old_arity = arity(ins.op);
+    ins.op = randomOp(shape, rng);
+    for (int a = old_arity; a < arity(ins.op); ++a) ins.args[a] = randomOperand(shape, pos, rng);
+  } else if (u < 0.7 || shape.num_constants == 0) {
+    const int a = static_cast<int>(rng.below(arity(ins.op)));
+    ins.args[a] = randomOperand(shape, pos, rng);
+  } else if (u < 0.95 || shape.output_mode != OutputMode::Designated) {
+    // Constant change: perturb a constant this opcode uses, else any slot.
+    int slot = -1;
+    for (int a = 0; a < arity(ins.op); ++a)
+      if (ins.args[a].kind == OperandKind::Const) slot = ins.args[a].index;
+    if (slot < 0) slot = static_cast<int>(rng.below(shape.num_constants));
+    float& c = p.constants[slot];
+    if (rng.chance(0.1)) {
+      c = static_cast<float>(rng.uniform(-2.0, 2.0));
+    } else {
+      const double scale = std::max(std::fabs(static_cast<double>(c)), 0.1);
+      c = static_cast<float>(c + constant_sigma * scale * rng.normal());
+    }
+    if (!std::isfinite(c)) c = 1.0f;
+  } else {
+    const int k = static_cast<int>(rng.below(static_cast<uint32_t>(p.outputs.size())));
+    p.outputs[k] = static_cast<uint8_t>(rng.below(n));
+  }
+  syncOutputs(p, shape);
+}
+
+void macroMutate(Program& p, const ProgramShape& shape, Rng& rng) {
+  const int n = static_cast<int>(p.code.size());
+  const int min_len = std::max(1, shape.num_outputs);
+  const bool insert = (n < shape.max_length) && (n <= min_len || rng.chance(0.5));
+  if (insert) {
+    const int pos = static_cast<int>(rng.below(n + 1));
+    for (int i = pos; i < n; ++i)
+      for (int a = 0; a < arity(p.code[i].op); ++a) {
+        Operand& o = p.code[i].args[a];
+        if (o.kind == OperandKind::Reg && o.index >= pos) ++o.index;
+      }
+    if (shape.output_mode == OutputMode::Designated)
+      for (auto& o : p.outputs)
+        if (o >= pos) ++o;
+    p.code.insert(p.code.begin() + pos, randomInstr(shape, pos, rng));
+    // Make the new opcode effective (Brameier & Banzhaf's effective insertion): rewire one
+    // operand of a later effective opcode to it.
+    const auto eff = effectiveIndices(p);
+    std::vector<int> later;
+    for (int e : eff)
+      if (e > pos) later.push_back(e);
+    if (!later.empty()) {
+      Instr& user = p.code[later[rng.below(static_cast<uint32_t>(later.size()))]];
+      const int a = static_cast<int>(rng.below(arity(user.op)));
+      user.args[a] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos)};
+    }
+  } else if (n > min_len) {
+    const int pos = static_cast<int>(rng.below(n));
+    // Users of the deleted opcode take its first register operand, else a random operand.
+    const Instr del = p.code[pos];
+    Operand repl{OperandKind::Var, 0};
+    bool have = false;
+    for (int a = 0; a < arity(del.op); ++a)
+      if (del.args[a].kind == OperandKind::Reg) {
+        repl = del.args[a];
+        have = true;
+        break;
+      }
+    if (!have) repl = arity(del.op) > 0 ? del.args[0] : Operand{};
+    p.code.erase(p.code.begin() + pos);
+    for (int i = pos; i < n - 1; ++i)
+      for (int a = 0; a < arity(p.code[i].op); ++a) {
+        Operand& o = p.code[i].args[a];
+        if (o.kind != OperandKind::Reg) continue;
+        if (o.index == pos) o = repl;
+        else if (o.index > pos) --o.index;
+      }
+    if (shape.output_mode == OutputMode::Designated)
+      for (auto& o : p.outputs)
+        if (o >= pos && o > 0) --o;
+  }
+  repairAll(p, shape, rng);
+}
+
+}  // namespace lgp

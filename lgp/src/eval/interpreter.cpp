@@ -1,0 +1,174 @@
+// Block interpreter. Rules (see interpreter.hpp): decode once, dispatch per opcode per block,
+// float32 columns in a registers-by-block scratch, no allocation/throw/libm in the hot loop.
+#include "lgp/eval/interpreter.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+
+#include "lgp/eval/semantics.hpp"
+
+namespace lgp {
+
+namespace {
+std::atomic<uint64_t> g_bind_counter{1};
+
+float* allocAligned(size_t n) {
+  const size_t bytes = ((n * sizeof(float) + 63) / 64) * 64;
+  void* p = std::aligned_alloc(64, std::max<size_t>(bytes, 64));
+  if (!p) throw std::bad_alloc();
+  return static_cast<float*>(p);
+}
+void freeAligned(float* p) { std::free(p); }
+
+template <Op OP>
+void kernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
+            const float* __restrict c, const float* __restrict d, int n) {
+#pragma omp simd
+  for (int i = 0; i < n; ++i) out[i] = sem::apply<OP, float>(a[i], b[i], c[i], d[i]);
+}
+
+constexpr std::array<Kernel, kNumOps> kKernels = {
+#define LGP_X_KERNEL(E, ...) &kernel<Op::E>,
+    LGP_OPS(LGP_X_KERNEL)
+#undef LGP_X_KERNEL
+};
+}  // namespace
+
+Kernel kernelFor(Op op) { return kKernels[static_cast<int>(op)]; }
+
+Dataset::Dataset(const Table& t, int block_size) : rows_(t.rows()), block_(block_size) {
+  if (block_ < 16 || block_ % 16 != 0) throw std::invalid_argument("block size must be a multiple of 16");
+  padded_ = rows_ == 0 ? block_ : ((rows_ + block_ - 1) / block_) * block_;
+  inputs_.resize(t.numInputs());
+  for (size_t i = 0; i < t.numInputs(); ++i) {
+    inputs_[i].resize(padded_);
+    for (size_t r = 0; r < padded_; ++r)
+      inputs_[i][r] = static_cast<float>(t.inputs[i][std::min(r, rows_ - 1)]);
+  }
+  targets_.resize(t.numOutputs());
+  for (size_t o = 0; o < t.numOutputs(); ++o) {
+    targets_[o].resize(padded_);
+    for (size_t r = 0; r < padded_; ++r) targets_[o][r] = t.outputs[o][std::min(r, rows_ - 1)];
+  }
+  weights_.assign(padded_, 0.0);
+  for (size_t r = 0; r < rows_; ++r) weights_[r] = t.weights.empty() ? 1.0 : t.weights[r];
+  weight_sum_ = 0;
+  for (size_t r = 0; r < rows_; ++r) weight_sum_ += weights_[r];
+}
+
+void BoundProgram::bind(const Program& p, int n_inputs) {
+  num_inputs = n_inputs;
+  steps.clear();
+  const_values.clear();
+  output_slots.clear();
+  bind_id = g_bind_counter.fetch_add(1, std::memory_order_relaxed);
+  const auto eff = effectiveIndices(p);
+  std::vector<int32_t> const_slot(p.constants.size(), -1);
+  for (int i : eff) {
+    const Instr& ins = p.code[i];
+    for (int a = 0; a < arity(ins.op); ++a)
+      if (ins.args[a].kind == OperandKind::Const && const_slot[ins.args[a].index] < 0) {
+        const_slot[ins.args[a].index] = n_inputs + static_cast<int32_t>(const_values.size());
+        const_values.push_back(p.constants[ins.args[a].index]);
+      }
+  }
+  const int32_t reg_base = n_inputs + static_cast<int32_t>(const_values.size());
+  std::vector<int32_t> reg_slot(p.code.size(), -1);
+  for (size_t k = 0; k < eff.size(); ++k) {
+    const Instr& ins = p.code[eff[k]];
+    Step s{};
+    s.kernel = kernelFor(ins.op);
+    s.dst = reg_base + static_cast<int32_t>(k);
+    reg_slot[eff[k]] = s.dst;
+    for (int a = 0; a < kMaxArity; ++a) {
+      if (a >= arity(ins.op)) {
+        s.src[a] = s.src[0];  // never read; any valid column
+        continue;
+      }
+      const Operand& o = ins.args[a];
+      s.src[a] = o.kind == OperandKind::Var     ? static_cast<int32_t>(o.index)
+                 : o.kind == OperandKind::Const ? const_slot[o.index]
+                                                : reg_slot[o.index];
+    }
+    steps.push_back(s);
+  }
+  for (uint8_t o : p.outputs) output_slots.push_back(reg_slot[o]);
+  num_slots = reg_base + static_cast<int32_t>(eff.size());
+}
+
+Interpreter::Interpreter(int block_size) : block_(block_size), scratch_(nullptr, &freeAligned) {
+  if (block_ < 16 || block_ % 16 != 0) throw std::invalid_argument("block size must be a multiple of 16");
+  reserve(64);
+}
+
+void Interpreter::reserve(int slots) {
+  if (slots <= capacity_slots_) return;
+  capacity_slots_ = std::max(slots, capacity_slots_ * 2);
+  scratch_.reset(allocAligned(static_cast<size_t>(capacity_slots_) * block_));
+  ptrs_.resize(capacity_slots_ + 1);
+  filled_id_ = 0;
+}
+
+const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, const Dataset& ds,
+                                                        size_t block) {
+  const int scratch_slots = bp.num_slots - bp.num_inputs;
+  reserve(scratch_slots);
+  float* scratch = scratch_.get();
+  const size_t off = block * static_cast<size_t>(block_);
+  for (int i = 0; i < bp.num_inputs; ++i) ptrs_[i] = ds.input(i) + off;
+  for (int s = bp.num_inputs; s < bp.num_slots; ++s)
+    ptrs_[s] = scratch + static_cast<size_t>(s - bp.num_inputs) * block_;
+  // Constant rows are broadcast once per bound program, not per block.
+  if (filled_id_ != bp.bind_id) {
+    for (size_t c = 0; c < bp.const_values.size(); ++c)
+      std::fill_n(scratch + c * block_, block_, bp.const_values[c]);
+    filled_id_ = bp.bind_id;
+  }
+  for (const auto& st : bp.steps) {
+    st.kernel(scratch + static_cast<size_t>(st.dst - bp.num_inputs) * block_, ptrs_[st.src[0]],
+              ptrs_[st.src[1]], ptrs_[st.src[2]], ptrs_[st.src[3]], block_);
+  }
+  outs_.resize(bp.output_slots.size());
+  for (size_t o = 0; o < bp.output_slots.size(); ++o) outs_[o] = ptrs_[bp.output_slots[o]];
+  return outs_;
+}
+
+std::vector<std::vector<float>> Interpreter::evaluate(const Program& p, const Dataset& ds) {
+  if (ds.blockSize() != block_) throw std::invalid_argument("dataset and interpreter block sizes differ");
+  BoundProgram bp;
+  bp.bind(p, ds.numInputs());
+  std::vector<std::vector<float>> out(p.outputs.size(), std::vector<float>(ds.rows()));
+  for (size_t b = 0; b < ds.numBlocks(); ++b) {
+    const auto& o = evalBlock(bp, ds, b);
+    const size_t off = b * block_;
+    const size_t n = std::min<size_t>(block_, ds.rows() - std::min(ds.rows(), off));
+    for (size_t k = 0; k < o.size(); ++k) std::copy_n(o[k], n, out[k].begin() + off);
+  }
+  return out;
+}
+
+void evaluateScalarRows(const Program& p, const Dataset& ds, std::vector<std::vector<float>>& out) {
+  const size_t n = ds.rows();
+  out.assign(p.outputs.size(), std::vector<float>(n));
+  std::vector<float> regs(p.code.size());
+  const auto eff = effectiveIndices(p);
+  for (size_t r = 0; r < n; ++r) {
+    for (int i : eff) {
+      const Instr& ins = p.code[i];
+      float v[kMaxArity] = {0, 0, 0, 0};
+      for (int a = 0; a < arity(ins.op); ++a) {
+        const Operand& o = ins.args[a];
+        v[a] = o.kind == OperandKind::Var     ? ds.input(o.index)[r]
+               : o.kind == OperandKind::Const ? p.constants[o.index]
+                                              : regs[o.index];
+      }
+      regs[i] = sem::applyDynamic<float>(ins.op, v[0], v[1], v[2], v[3]);
+    }
+    for (size_t k = 0; k < p.outputs.size(); ++k) out[k][r] = regs[p.outputs[k]];
+  }
+}
+
+}  // namespace lgp

@@ -1,0 +1,444 @@
+#include "lgp/search/search.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+#include "lgp/core/variation.hpp"
+#include "lgp/search/nelder_mead.hpp"
+
+namespace lgp {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+uint64_t fnv1a(const void* data, size_t n, uint64_t h = 1469598103934665603ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+nlohmann::json objToJson(const Objectives& o) {
+  // JSON has no infinity: a non-finite error is stored as null.
+  return nlohmann::json::array(
+      {o.finite() ? nlohmann::json(o.error) : nlohmann::json(nullptr), o.cost, o.discontinuity});
+}
+
+Expected<Objectives> objFromJson(const nlohmann::json& j) {
+  if (!j.is_array() || j.size() != 3 || !j[1].is_number() || !j[2].is_number())
+    return Status::error("bad objectives");
+  Objectives o;
+  o.error = j[0].is_number() ? j[0].get<double>() : kInf;
+  o.cost = j[1].get<double>();
+  o.discontinuity = j[2].get<double>();
+  return o;
+}
+}  // namespace
+
+Expected<Table> loadTableFile(const DataConfig& data, const std::filesystem::path& base_dir) {
+  if (data.path.empty()) return Status::error("/data/path: no table file named");
+  std::filesystem::path p = data.path;
+  if (p.is_relative()) p = base_dir / p;
+  auto raw = readTableFile(p);
+  if (!raw) return raw.status();
+  return selectColumns(*raw, data.inputs, data.outputs, data.weights, p.string());
+}
+
+Search::Search(RunConfig cfg, Table table)
+    : cfg_(std::move(cfg)),
+      table_(std::move(table)),
+      shape_(cfg_.shape(static_cast<int>(table_.numInputs()), static_cast<int>(table_.numOutputs()))),
+      err_cfg_(cfg_.errorConfig(table_.output_names)),
+      cost_(cfg_.costModel()),
+      disc_(cfg_.discontinuityModel()),
+      ds_(table_, cfg_.eval.block_size),
+      archive_(cfg_.search.archive) {
+  transform_cost_ = cost_.transformCost(err_cfg_.transforms);
+  threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
+  scorers_.resize(threads_);
+  start_ = std::chrono::steady_clock::now();
+}
+
+Search::~Search() = default;
+
+Scorer& Search::scorer(int thread) {
+  auto& s = scorers_[thread];
+  if (!s) s = std::make_unique<Scorer>(ds_, err_cfg_, cfg_.eval.block_size);
+  return *s;
+}
+
+double Search::elapsed() const {
+  return elapsed_before_ +
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+}
+
+Objectives Search::score(Scorer& s, const Program& p) const {
+  Objectives o;
+  o.error = s.error(p);
+  if (!std::isfinite(o.error)) o.error = kInf;
+  o.cost = cost_.programCost(p) + transform_cost_;
+  o.discontinuity = disc_.programDiscontinuity(p);
+  return o;
+}
+
+void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals) const {
+  const auto slots = effectiveConstants(ind.program);
+  ind.refined = true;
+  if (slots.empty() || !ind.obj.finite()) return;
+  Program work = ind.program;
+  std::vector<double> x0;
+  for (int c : slots) x0.push_back(work.constants[c]);
+  auto f = [&](const std::vector<double>& x) {
+    for (size_t k = 0; k < slots.size(); ++k) {
+      const float v = static_cast<float>(x[k]);
+      if (!std::isfinite(v)) return kInf;
+      work.constants[slots[k]] = v;
+    }
+    return s.error(work);
+  };
+  Rng rng(seed);
+  const auto res = nelderMead(f, x0, cfg_.search.refine.nm, rng);
+  evals += static_cast<uint64_t>(res.evaluations);
+  if (res.f < ind.obj.error) {
+    for (size_t k = 0; k < slots.size(); ++k) ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
+    const double e = s.error(ind.program);
+    ++evals;
+    if (std::isfinite(e) && e <= ind.obj.error) ind.obj.error = e;
+    else
+      for (size_t k = 0; k < slots.size(); ++k) ind.program.constants[slots[k]] = static_cast<float>(x0[k]);
+  }
+}
+
+void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
+                         uint64_t stream) {
+  const int n = static_cast<int>(inds.size());
+  uint64_t evals = 0;
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) reduction(+ : evals)
+  for (int i = 0; i < n; ++i) {
+    Scorer& s = scorer(omp_get_thread_num());
+    inds[i].obj = score(s, inds[i].program);
+    ++evals;
+    if (!refine.empty() && refine[i])
+      refineOne(s, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3), evals);
+  }
+  evaluations_ += evals;
+  session_evals_ += evals;
+}
+
+void Search::rankPopulation() {
+  // Duplicated objective vectors rank after every distinct one: they add nothing to the front
+  // and would otherwise crowd it out (the classic bloat of trivial programs).
+  const int n = static_cast<int>(pop_.size());
+  std::vector<int> uniq, dup;
+  for (int i = 0; i < n; ++i) {
+    bool is_dup = false;
+    for (int j : uniq) {
+      const auto& a = pop_[i].obj;
+      const auto& b = pop_[j].obj;
+      if ((a.error == b.error || (!a.finite() && !b.finite())) && a.cost == b.cost &&
+          a.discontinuity == b.discontinuity) {
+        is_dup = true;
+        break;
+      }
+    }
+    (is_dup ? dup : uniq).push_back(i);
+  }
+  std::vector<Objectives> objs;
+  for (int i : uniq) objs.push_back(pop_[i].obj);
+  const auto r = nondominatedRanks(objs);
+  rank_.assign(n, 0);
+  crowd_.assign(n, 0.0);
+  int max_rank = 0;
+  for (size_t k = 0; k < uniq.size(); ++k) {
+    rank_[uniq[k]] = r[k];
+    max_rank = std::max(max_rank, r[k]);
+  }
+  for (int i : dup) rank_[i] = max_rank + 1;
+  std::vector<Objectives> all;
+  for (const auto& ind : pop_) all.push_back(ind.obj);
+  std::vector<std::vector<int>> fronts(max_rank + 2);
+  for (int i = 0; i < n; ++i) fronts[rank_[i]].push_back(i);
+  for (const auto& members : fronts) {
+    if (members.empty()) continue;
+    const auto d = crowdingDistance(all, members);
+    for (size_t k = 0; k < members.size(); ++k) crowd_[members[k]] = d[k];
+  }
+}
+
+void Search::survive(std::vector<Individual>& pool) {
+  pop_ = std::move(pool);
+  rankPopulation();
+  const int n = static_cast<int>(pop_.size());
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (rank_[a] != rank_[b]) return rank_[a] < rank_[b];
+    return crowd_[a] > crowd_[b];
+  });
+  const int keep = std::min(n, cfg_.search.population);
+  std::vector<Individual> next;
+  next.reserve(keep);
+  for (int k = 0; k < keep; ++k) next.push_back(std::move(pop_[order[k]]));
+  pop_ = std::move(next);
+  rankPopulation();
+}
+
+int Search::tournament(Rng& rng) const {
+  const int n = static_cast<int>(pop_.size());
+  int best = static_cast<int>(rng.below(n));
+  for (int t = 1; t < cfg_.search.tournament_size; ++t) {
+    const int c = static_cast<int>(rng.below(n));
+    if (rank_[c] < rank_[best] || (rank_[c] == rank_[best] && crowd_[c] > crowd_[best])) best = c;
+  }
+  return best;
+}
+
+void Search::initialize() {
+  if (initialized_) return;
+  const int n = cfg_.search.population;
+  InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
+                  cfg_.program.const_min, cfg_.program.const_max};
+  std::vector<Individual> inds(n);
+  for (int i = 0; i < n; ++i) {
+    Rng rng(hashSeed(cfg_.search.seed, 0, static_cast<uint64_t>(i), 1));
+    inds[i].program = randomProgram(shape_, init, rng);
+  }
+  evaluateAll(inds, {}, 0);
+  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj);
+  survive(inds);
+  generation_ = 0;
+  initialized_ = true;
+}
+
+void Search::step() {
+  if (!initialized_) {
+    initialize();
+    return;
+  }
+  if (done()) return;
+  const int g = generation_ + 1;
+  const int n = cfg_.search.population;
+  const auto& var = cfg_.search.variation;
+  std::vector<Individual> off(n);
+#pragma omp parallel for num_threads(threads_) schedule(static)
+  for (int i = 0; i < n; ++i) {
+    Rng rng(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), static_cast<uint64_t>(i), 1));
+    const int a = tournament(rng);
+    Program child;
+    if (rng.chance(var.crossover_rate)) {
+      const int b = tournament(rng);
+      child = crossover(pop_[a].program, pop_[b].program, shape_, rng);
+    } else {
+      child = pop_[a].program;
+    }
+    if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng);
+    if (rng.chance(var.micro_rate)) {
+      const int m = 1 + static_cast<int>(rng.below(var.micro_max));
+      for (int k = 0; k < m; ++k) microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias);
+    }
+    off[i].program = std::move(child);
+  }
+  std::vector<uint8_t> refine(n, 0);
+  Rng pick(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), 0, 2));
+  for (int i = 0; i < n; ++i) refine[i] = pick.chance(cfg_.search.refine.offspring_share);
+  evaluateAll(off, refine, static_cast<uint64_t>(g));
+  for (const auto& ind : off) archive_.insert(ind.program, ind.obj, ind.refined);
+
+  std::vector<Individual> pool = std::move(pop_);
+  pool.insert(pool.end(), std::make_move_iterator(off.begin()), std::make_move_iterator(off.end()));
+  survive(pool);
+  generation_ = g;
+  if (cfg_.search.refine.archive_period > 0 && g % cfg_.search.refine.archive_period == 0)
+    refineArchive();
+}
+
+void Search::refineArchive() {
+  auto& members = archive_.mutableMembers();
+  std::vector<int> todo;
+  for (int i = 0; i < static_cast<int>(members.size()); ++i)
+    if (!members[i].refined && static_cast<int>(todo.size()) < cfg_.search.refine.archive_max)
+      todo.push_back(i);
+  if (todo.empty()) return;
+  std::vector<Individual> inds(todo.size());
+  for (size_t k = 0; k < todo.size(); ++k) {
+    inds[k].program = members[todo[k]].program;
+    inds[k].obj = members[todo[k]].obj;
+    members[todo[k]].refined = true;
+  }
+  const int n = static_cast<int>(inds.size());
+  uint64_t evals = 0;
+  const uint64_t stream = (static_cast<uint64_t>(generation_) << 20) | 0xA5A5u;
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 1) reduction(+ : evals)
+  for (int i = 0; i < n; ++i)
+    refineOne(scorer(omp_get_thread_num()), inds[i],
+              hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 4), evals);
+  evaluations_ += evals;
+  session_evals_ += evals;
+  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
+  // Refined members also rejoin the population so their constants propagate.
+  std::vector<Individual> pool = std::move(pop_);
+  for (auto& ind : inds) pool.push_back(std::move(ind));
+  survive(pool);
+}
+
+std::string Search::stopReason() const {
+  if (!initialized_) return stop_.load() ? "stopped" : "";
+  if (stop_.load()) return "stopped";
+  const auto& s = cfg_.search;
+  if (s.generations > 0 && generation_ >= s.generations) return "generations";
+  if (s.max_evaluations > 0 && evaluations_ >= s.max_evaluations) return "evaluations";
+  if (s.wall_time_s > 0 && elapsed() >= s.wall_time_s) return "wall_time";
+  return "";
+}
+
+bool Search::done() const { return !stopReason().empty(); }
+
+void Search::run(const std::function<void(const SearchProgress&)>& on_progress) {
+  auto last = std::chrono::steady_clock::now();
+  if (!initialized_) {
+    initialize();
+    if (on_progress) on_progress(progress());
+  }
+  while (!done()) {
+    step();
+    const auto now = std::chrono::steady_clock::now();
+    if (on_progress && std::chrono::duration<double>(now - last).count() >=
+                           cfg_.output.progress_interval_s) {
+      on_progress(progress());
+      last = now;
+    }
+  }
+  if (on_progress) on_progress(progress());
+}
+
+SearchProgress Search::progress() const {
+  SearchProgress p;
+  p.generation = generation_;
+  p.evaluations = evaluations_;
+  p.elapsed_s = elapsed();
+  const double session = p.elapsed_s - elapsed_before_;
+  p.evals_per_s = session > 0 ? static_cast<double>(session_evals_) / session : 0;
+  const auto& members = archive_.members();
+  p.front_size = members.size();
+  p.best_error = kInf;
+  for (const auto& m : members) p.best_error = std::min(p.best_error, m.obj.error);
+  std::vector<double> levels = cfg_.output.progress_cost_levels;
+  if (levels.empty()) {
+    std::vector<double> costs;
+    for (const auto& m : members) costs.push_back(m.obj.cost);
+    std::sort(costs.begin(), costs.end());
+    costs.erase(std::unique(costs.begin(), costs.end()), costs.end());
+    if (costs.size() <= 4) {
+      levels = costs;
+    } else {
+      for (int k = 1; k <= 4; ++k) levels.push_back(costs[(costs.size() - 1) * k / 4]);
+    }
+  }
+  for (double c : levels) {
+    double best = kInf;
+    for (const auto& m : members)
+      if (m.obj.cost <= c) best = std::min(best, m.obj.error);
+    p.best_at_cost.emplace_back(c, best);
+  }
+  p.stop_reason = stopReason();
+  p.finished = !p.stop_reason.empty();
+  return p;
+}
+
+std::vector<FrontEntry> Search::front() const {
+  const auto members = archive_.sorted();
+  std::vector<FrontEntry> out(members.size());
+  std::array<CostModel, kNumCostTargets> models;
+  for (int t = 0; t < kNumCostTargets; ++t) models[t] = CostModel::preset(static_cast<CostTarget>(t));
+  const int n = static_cast<int>(members.size());
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
+  for (int i = 0; i < n; ++i) {
+    FrontEntry& e = out[i];
+    e.program = pruneIntrons(members[i].program);
+    e.obj = members[i].obj;
+    Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
+    e.metrics = s.metrics(e.program);
+    e.metrics_ref = referenceMetrics(e.program, table_, err_cfg_);
+    for (int t = 0; t < kNumCostTargets; ++t)
+      e.cost_by_target[t] = models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
+    e.infix = toInfix(e.program, table_.input_names);
+  }
+  return out;
+}
+
+std::string Search::configDigest() const {
+  nlohmann::json c = toJson(cfg_);
+  c.erase("output");  // where results go does not change the search
+  c["search"].erase("threads");
+  c["search"].erase("generations");  // budgets may be extended on resume
+  c["search"].erase("max_evaluations");
+  c["search"].erase("wall_time_s");
+  const std::string s = c.dump();
+  uint64_t h = fnv1a(s.data(), s.size());
+  for (const auto& col : table_.inputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
+  for (const auto& col : table_.outputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
+  h = fnv1a(table_.weights.data(), table_.weights.size() * sizeof(double), h);
+  char buf[17];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+nlohmann::json Search::checkpoint() const {
+  nlohmann::json pop = nlohmann::json::array();
+  for (const auto& ind : pop_)
+    pop.push_back({{"program", toJson(ind.program)}, {"obj", objToJson(ind.obj)}, {"refined", ind.refined}});
+  nlohmann::json arch = nlohmann::json::array();
+  for (const auto& m : archive_.members())
+    arch.push_back({{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
+  return {{"format", "lgp-checkpoint/1"},
+          {"config_digest", configDigest()},
+          {"initialized", initialized_},
+          {"generation", generation_},
+          {"evaluations", evaluations_},
+          {"elapsed_s", elapsed()},
+          {"population", pop},
+          {"archive", arch}};
+}
+
+Status Search::restore(const nlohmann::json& st) {
+  try {
+    if (st.value("format", "") != "lgp-checkpoint/1") return Status::error("checkpoint: unknown format");
+    if (st.at("config_digest").get<std::string>() != configDigest())
+      return Status::error("checkpoint: made with a different config or table");
+    std::vector<Individual> pop;
+    for (const auto& j : st.at("population")) {
+      auto p = programFromJson(j.at("program"), shape_);
+      if (!p) return Status::error("checkpoint: population: " + p.error());
+      auto o = objFromJson(j.at("obj"));
+      if (!o) return Status::error("checkpoint: population: " + o.error());
+      pop.push_back({*p, *o, j.value("refined", false)});
+    }
+    Archive arch(cfg_.search.archive);
+    auto& members = arch.mutableMembers();
+    for (const auto& j : st.at("archive")) {
+      auto p = programFromJson(j.at("program"), shape_);
+      if (!p) return Status::error("checkpoint: archive: " + p.error());
+      auto o = objFromJson(j.at("obj"));
+      if (!o) return Status::error("checkpoint: archive: " + o.error());
+      members.push_back({*p, *o, j.value("refined", false)});
+    }
+    pop_ = std::move(pop);
+    archive_ = std::move(arch);
+    initialized_ = st.at("initialized").get<bool>();
+    generation_ = st.at("generation").get<int>();
+    evaluations_ = st.at("evaluations").get<uint64_t>();
+    elapsed_before_ = st.at("elapsed_s").get<double>();
+    start_ = std::chrono::steady_clock::now();
+    session_evals_ = 0;
+    if (!pop_.empty()) rankPopulation();
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(std::string("checkpoint: ") + e.what());
+  }
+  return Status::ok();
+}
+
+}  // namespace lgp

@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# One entry point for a fresh machine:
+#   scripts/lgp.sh run    install what is missing, build Release, run the example search
+#   scripts/lgp.sh test   install what is missing, build Release, run the whole test suite
+#   scripts/lgp.sh deps   only install the Debian packages
+#   scripts/lgp.sh build  install + build
+# Environment: BUILD_DIR (default build/release), JOBS (default nproc).
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+BUILD_DIR="${BUILD_DIR:-$ROOT/build/release}"
+JOBS="${JOBS:-$(nproc)}"
+
+# Debian packages the project builds, tests and benchmarks with. Nothing is downloaded at
+# build time and nothing is vendored.
+PACKAGES=(
+  build-essential cmake pkg-config
+  libeigen3-dev nlohmann-json3-dev libspdlog-dev libcxxopts-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libcpp-httplib-dev libsqlite3-dev
+  glslang-tools
+  chromium
+)
+
+deps() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if ((${#missing[@]} == 0)); then
+    echo "lgp: all ${#PACKAGES[@]} packages present"
+    return
+  fi
+  echo "lgp: installing ${missing[*]}"
+  local sudo=""
+  if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+    "${missing[@]}" >/dev/null
+}
+
+build() {
+  cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$BUILD_DIR" -j "$JOBS"
+}
+
+cmd="${1:-}"
+case "$cmd" in
+  deps) deps ;;
+  build) deps; build ;;
+  run)
+    deps; build
+    cd "$ROOT/examples"
+    "$BUILD_DIR/frontends/lgp" run quickstart.json
+    "$BUILD_DIR/frontends/lgp" front quickstart-front.json
+    ;;
+  test)
+    deps; build
+    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600
+    ;;
+  *)
+    echo "usage: scripts/lgp.sh run|test|deps|build" >&2
+    exit 2
+    ;;
+esac
