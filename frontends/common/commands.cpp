@@ -17,6 +17,8 @@ void registerCommand(const Command& c) {
   std::sort(r.begin(), r.end(), [](const Command& a, const Command& b) { return a.name < b.name; });
 }
 
-const std::vector<Command>& commands() { return registry(); }
+const std::vector<Command>& commands() {
+  return registry();
+}
 
 }  // namespace lgp::cli

@@ -10,8 +10,8 @@
 namespace lgp::cli {
 
 struct Command {
-  std::string name;     // `lgp <name> ...`
-  std::string summary;  // one line for `lgp --help`
+  std::string name;                    // `lgp <name> ...`
+  std::string summary;                 // one line for `lgp --help`
   int (*main)(int argc, char** argv);  // argv[0] is "lgp <name>"
 };
 
@@ -25,4 +25,8 @@ struct CommandRegistrar {
 }  // namespace lgp::cli
 
 #define LGP_REGISTER_COMMAND(var, name, summary, fn) \
-  static ::lgp::cli::CommandRegistrar var{::lgp::cli::Command{name, summary, fn}}
+  static ::lgp::cli::CommandRegistrar var {          \
+    ::lgp::cli::Command {                            \
+      name, summary, fn                              \
+    }                                                \
+  }

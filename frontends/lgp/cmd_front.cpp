@@ -9,7 +9,8 @@
 namespace {
 
 int frontMain(int argc, char** argv) {
-  cxxopts::Options opts(argv[0], "Print the Pareto front of a run (front JSON written by `lgp run`).");
+  cxxopts::Options opts(argv[0],
+                        "Print the Pareto front of a run (front JSON written by `lgp run`).");
   opts.positional_help("front.json");
   opts.add_options()("front", "front JSON file", cxxopts::value<std::string>())(
       "json", "print the members as JSON instead of a table")("h,help", "this help");

@@ -35,8 +35,8 @@ int runMain(int argc, char** argv) {
   opts.positional_help("config.json");
   opts.add_options()("config", "run config (JSON)", cxxopts::value<std::string>())(
       "o,out", "front JSON path (overrides output.front_json)", cxxopts::value<std::string>())(
-      "csv", "front CSV path (overrides output.front_csv; '' disables)", cxxopts::value<std::string>())(
-      "seed", "override search.seed", cxxopts::value<uint64_t>())(
+      "csv", "front CSV path (overrides output.front_csv; '' disables)",
+      cxxopts::value<std::string>())("seed", "override search.seed", cxxopts::value<uint64_t>())(
       "threads", "override search.threads", cxxopts::value<int>())(
       "generations", "override search.generations", cxxopts::value<int>())(
       "wall-time", "override search.wall_time_s", cxxopts::value<double>())(
@@ -64,8 +64,10 @@ int runMain(int argc, char** argv) {
   }
   if (args.count("seed")) cfg->search.seed = args["seed"].as<uint64_t>();
   if (args.count("threads")) cfg->search.threads = std::max(0, args["threads"].as<int>());
-  if (args.count("generations")) cfg->search.generations = std::max(0, args["generations"].as<int>());
-  if (args.count("wall-time")) cfg->search.wall_time_s = std::max(0.0, args["wall-time"].as<double>());
+  if (args.count("generations"))
+    cfg->search.generations = std::max(0, args["generations"].as<int>());
+  if (args.count("wall-time"))
+    cfg->search.wall_time_s = std::max(0.0, args["wall-time"].as<double>());
   if (args.count("out")) cfg->output.front_json = args["out"].as<std::string>();
   if (args.count("csv")) cfg->output.front_csv = args["csv"].as<std::string>();
   if (auto st = cfg->validate(); !st) {
@@ -119,12 +121,15 @@ int runMain(int argc, char** argv) {
     }
   const auto p = search.progress();
   if (!quiet)
-    std::fprintf(stderr, "lgp: stopped (%s) after %d generations, %llu evaluations, %.1f s; %zu members -> %s\n",
-                 p.stop_reason.c_str(), p.generation, static_cast<unsigned long long>(p.evaluations),
-                 p.elapsed_s, front.size(), cfg->output.front_json.c_str());
+    std::fprintf(
+        stderr,
+        "lgp: stopped (%s) after %d generations, %llu evaluations, %.1f s; %zu members -> %s\n",
+        p.stop_reason.c_str(), p.generation, static_cast<unsigned long long>(p.evaluations),
+        p.elapsed_s, front.size(), cfg->output.front_json.c_str());
   return g_interrupts.load() > 0 ? 130 : 0;
 }
 
 }  // namespace
 
-LGP_REGISTER_COMMAND(kRunCommand, "run", "run a search from a JSON config and write its front", runMain);
+LGP_REGISTER_COMMAND(kRunCommand, "run", "run a search from a JSON config and write its front",
+                     runMain);

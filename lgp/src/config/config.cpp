@@ -26,7 +26,9 @@ struct ConfigError {
   throw ConfigError{(path.empty() ? "/" : path) + ": " + why};
 }
 
-std::string typeName(const nlohmann::json& v) { return v.type_name(); }
+std::string typeName(const nlohmann::json& v) {
+  return v.type_name();
+}
 
 // Reads one JSON object, remembering which keys were consumed so unknown keys are reported.
 class Obj {
@@ -63,14 +65,16 @@ class Obj {
   void uinteger(const std::string& k, uint64_t& out) {
     if (!has(k)) return;
     const auto& v = at(k);
-    if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() && v.get<long long>() < 0))
+    if (!v.is_number_integer() ||
+        (v.is_number_integer() && !v.is_number_unsigned() && v.get<long long>() < 0))
       fail(path(k), "must be a non-negative integer (got " + v.dump() + ")");
     out = v.get<uint64_t>();
   }
   void number(const std::string& k, double& out, double lo, double hi, bool open_lo = false) {
     if (!has(k)) return;
     const auto& v = at(k);
-    if (!v.is_number()) fail(path(k), "must be a number (got " + typeName(v) + " " + v.dump() + ")");
+    if (!v.is_number())
+      fail(path(k), "must be a number (got " + typeName(v) + " " + v.dump() + ")");
     const double x = v.get<double>();
     if (!std::isfinite(x) || x < lo || x > hi || (open_lo && x == lo)) {
       std::ostringstream os;
@@ -120,7 +124,8 @@ std::string opChoices() {
 Op parseOp(const nlohmann::json& v, const std::string& path) {
   if (!v.is_string()) fail(path, "must be an operator name");
   auto op = opFromString(v.get<std::string>());
-  if (!op) fail(path, "unknown operator '" + v.get<std::string>() + "' (known: " + opChoices() + ")");
+  if (!op)
+    fail(path, "unknown operator '" + v.get<std::string>() + "' (known: " + opChoices() + ")");
   return *op;
 }
 
@@ -155,12 +160,14 @@ void parseData(const nlohmann::json& j, DataConfig& d) {
       const std::string p = "/data/transforms/" + it.key();
       if (!it.value().is_string()) fail(p, "must be one of none, log, sqrt, rcp");
       auto tr = targetTransformFromString(it.value().get<std::string>());
-      if (!tr) fail(p, "'" + it.value().get<std::string>() + "' is not one of none, log, sqrt, rcp");
+      if (!tr)
+        fail(p, "'" + it.value().get<std::string>() + "' is not one of none, log, sqrt, rcp");
       d.transforms[it.key()] = *tr;
     }
   }
   o.finish();
-  if (d.path.empty() == d.scene.empty()) fail("/data", "exactly one of \"path\" and \"scene\" is required");
+  if (d.path.empty() == d.scene.empty())
+    fail("/data", "exactly one of \"path\" and \"scene\" is required");
 }
 
 void parseProgram(const nlohmann::json& j, ProgramConfig& p) {
@@ -169,13 +176,17 @@ void parseProgram(const nlohmann::json& j, ProgramConfig& p) {
   o.integer("constants", p.num_constants, 0, 255);
   if (o.has("output_mode")) {
     const auto& v = o.at("output_mode");
-    if (v == "last") p.output_mode = OutputMode::Last;
-    else if (v == "designated") p.output_mode = OutputMode::Designated;
-    else fail("/program/output_mode", "must be \"last\" or \"designated\"");
+    if (v == "last")
+      p.output_mode = OutputMode::Last;
+    else if (v == "designated")
+      p.output_mode = OutputMode::Designated;
+    else
+      fail("/program/output_mode", "must be \"last\" or \"designated\"");
   }
   if (o.has("ops")) {
     const auto& v = o.at("ops");
-    if (!v.is_array() || v.empty()) fail("/program/ops", "must be a non-empty array of operator names");
+    if (!v.is_array() || v.empty())
+      fail("/program/ops", "must be a non-empty array of operator names");
     p.ops.clear();
     std::set<Op> seen;
     for (size_t i = 0; i < v.size(); ++i) {
@@ -206,6 +217,7 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
 void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
   Obj o(j, "/search/refine");
   o.number("offspring_share", r.offspring_share, 0, 1);
+  o.integer("offspring_evaluations", r.offspring_evaluations, 1, 1 << 30);
   o.integer("archive_period", r.archive_period, 0, 1 << 30);
   o.integer("archive_max", r.archive_max, 0, 1 << 20);
   o.integer("max_evaluations", r.nm.max_evaluations, 1, 1 << 30);
@@ -244,6 +256,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   o.uinteger("seed", s.seed);
   o.integer("threads", s.threads, 0, 4096);
   o.integer("tournament_size", s.tournament_size, 1, 64);
+  o.number("error_bias", s.error_bias, 0, 1);
   if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
   if (o.has("refine")) parseNm(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
@@ -290,9 +303,12 @@ Status RunConfig::validate() const {
     return Status::error("/program/const_min: must be <= const_max");
   if (search.population < 4) return Status::error("/search/population: must be >= 4");
   if (search.generations == 0 && search.max_evaluations == 0 && search.wall_time_s == 0)
-    return Status::error("/search: set at least one budget (generations, max_evaluations or wall_time_s)");
-  if (auto s = search.archive.validate(); !s) return Status::error("/search/archive/" + s.message());
-  if (auto s = search.refine.nm.validate(); !s) return Status::error("/search/refine/" + s.message());
+    return Status::error(
+        "/search: set at least one budget (generations, max_evaluations or wall_time_s)");
+  if (auto s = search.archive.validate(); !s)
+    return Status::error("/search/archive/" + s.message());
+  if (auto s = search.refine.nm.validate(); !s)
+    return Status::error("/search/refine/" + s.message());
   if (eval.block_size < 16 || eval.block_size % 16 != 0)
     return Status::error("/eval/block_size: must be a multiple of 16 in [16, 16384]");
   if (output.front_json.empty()) return Status::error("/output/front_json: must not be empty");
@@ -398,66 +414,68 @@ nlohmann::json toJson(const RunConfig& c) {
     data["transforms"] = t;
   }
   json ops = json::array();
-  for (Op op : c.program.ops.empty() ? defaultOps() : c.program.ops) ops.push_back(std::string(opName(op)));
+  for (Op op : c.program.ops.empty() ? defaultOps() : c.program.ops)
+    ops.push_back(std::string(opName(op)));
   auto opMap = [](const std::map<Op, double>& m) {
     json o = json::object();
     for (const auto& [op, v] : m) o[std::string(opName(op))] = v;
     return o;
   };
   const auto& s = c.search;
-  return {
-      {"data", data},
-      {"program",
-       {{"max_length", c.program.max_length},
-        {"constants", c.program.num_constants},
-        {"output_mode", c.program.output_mode == OutputMode::Last ? "last" : "designated"},
-        {"ops", ops},
-        {"init_min_length", c.program.init_min_length},
-        {"init_max_length", c.program.init_max_length},
-        {"const_min", c.program.const_min},
-        {"const_max", c.program.const_max}}},
-      {"objectives",
-       {{"error", std::string(toString(c.objectives.metric))},
-        {"combine", std::string(toString(c.objectives.combine))},
-        {"rel_floor", c.objectives.rel_floor},
-        {"cost_model", std::string(toString(c.objectives.cost_model))},
-        {"cost_overrides", opMap(c.objectives.cost_overrides)},
-        {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)}}},
-      {"search",
-       {{"population", s.population},
-        {"generations", s.generations},
-        {"max_evaluations", s.max_evaluations},
-        {"wall_time_s", s.wall_time_s},
-        {"seed", s.seed},
-        {"threads", s.threads},
-        {"tournament_size", s.tournament_size},
-        {"variation",
-         {{"crossover_rate", s.variation.crossover_rate},
-          {"macro_rate", s.variation.macro_rate},
-          {"micro_rate", s.variation.micro_rate},
-          {"micro_max", s.variation.micro_max},
-          {"constant_sigma", s.variation.constant_sigma},
-          {"effective_bias", s.variation.effective_bias}}},
-        {"refine",
-         {{"offspring_share", s.refine.offspring_share},
-          {"archive_period", s.refine.archive_period},
-          {"archive_max", s.refine.archive_max},
-          {"max_evaluations", s.refine.nm.max_evaluations},
-          {"restarts", s.refine.nm.restarts},
-          {"initial_step", s.refine.nm.initial_step},
-          {"tolerance", s.refine.nm.tolerance}}},
-        {"archive",
-         {{"max_size", s.archive.max_size},
-          {"eps_log10_error", s.archive.eps_log10_error},
-          {"eps_cost", s.archive.eps_cost},
-          {"eps_discontinuity", s.archive.eps_discontinuity}}}}},
-      {"eval", {{"block_size", c.eval.block_size}}},
-      {"output",
-       {{"front_json", c.output.front_json},
-        {"front_csv", c.output.front_csv},
-        {"progress_interval_s", c.output.progress_interval_s},
-        {"progress_cost_levels", c.output.progress_cost_levels}}},
-      {"references", c.references}};
+  return {{"data", data},
+          {"program",
+           {{"max_length", c.program.max_length},
+            {"constants", c.program.num_constants},
+            {"output_mode", c.program.output_mode == OutputMode::Last ? "last" : "designated"},
+            {"ops", ops},
+            {"init_min_length", c.program.init_min_length},
+            {"init_max_length", c.program.init_max_length},
+            {"const_min", c.program.const_min},
+            {"const_max", c.program.const_max}}},
+          {"objectives",
+           {{"error", std::string(toString(c.objectives.metric))},
+            {"combine", std::string(toString(c.objectives.combine))},
+            {"rel_floor", c.objectives.rel_floor},
+            {"cost_model", std::string(toString(c.objectives.cost_model))},
+            {"cost_overrides", opMap(c.objectives.cost_overrides)},
+            {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)}}},
+          {"search",
+           {{"population", s.population},
+            {"generations", s.generations},
+            {"max_evaluations", s.max_evaluations},
+            {"wall_time_s", s.wall_time_s},
+            {"seed", s.seed},
+            {"threads", s.threads},
+            {"tournament_size", s.tournament_size},
+            {"error_bias", s.error_bias},
+            {"variation",
+             {{"crossover_rate", s.variation.crossover_rate},
+              {"macro_rate", s.variation.macro_rate},
+              {"micro_rate", s.variation.micro_rate},
+              {"micro_max", s.variation.micro_max},
+              {"constant_sigma", s.variation.constant_sigma},
+              {"effective_bias", s.variation.effective_bias}}},
+            {"refine",
+             {{"offspring_share", s.refine.offspring_share},
+              {"offspring_evaluations", s.refine.offspring_evaluations},
+              {"archive_period", s.refine.archive_period},
+              {"archive_max", s.refine.archive_max},
+              {"max_evaluations", s.refine.nm.max_evaluations},
+              {"restarts", s.refine.nm.restarts},
+              {"initial_step", s.refine.nm.initial_step},
+              {"tolerance", s.refine.nm.tolerance}}},
+            {"archive",
+             {{"max_size", s.archive.max_size},
+              {"eps_log10_error", s.archive.eps_log10_error},
+              {"eps_cost", s.archive.eps_cost},
+              {"eps_discontinuity", s.archive.eps_discontinuity}}}}},
+          {"eval", {{"block_size", c.eval.block_size}}},
+          {"output",
+           {{"front_json", c.output.front_json},
+            {"front_csv", c.output.front_csv},
+            {"progress_interval_s", c.output.progress_interval_s},
+            {"progress_cost_levels", c.output.progress_cost_levels}}},
+          {"references", c.references}};
 }
 
 }  // namespace lgp

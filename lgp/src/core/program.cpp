@@ -9,7 +9,9 @@
 namespace lgp {
 
 namespace {
-std::string where(size_t i) { return "opcode " + std::to_string(i); }
+std::string where(size_t i) {
+  return "opcode " + std::to_string(i);
+}
 }  // namespace
 
 Status validate(const Program& p, const ProgramShape& shape) {
@@ -84,7 +86,8 @@ std::vector<int> effectiveIndices(const Program& p) {
     if (!mark[i]) continue;
     const Instr& ins = p.code[i];
     for (int a = 0; a < arity(ins.op); ++a)
-      if (ins.args[a].kind == OperandKind::Reg && ins.args[a].index < i) mark[ins.args[a].index] = 1;
+      if (ins.args[a].kind == OperandKind::Reg && ins.args[a].index < i)
+        mark[ins.args[a].index] = 1;
   }
   std::vector<int> eff;
   for (int i = 0; i < n; ++i)
@@ -256,7 +259,7 @@ Expected<Program> programFromJson(const nlohmann::json& j, const ProgramShape& s
       auto r = std::from_chars(s.data() + 1, s.data() + s.size(), idx);
       if (r.ec != std::errc() || r.ptr != s.data() + s.size() || idx < 0 || idx > 255)
         return Status::error(at + ": bad operand '" + s + "'");
-      ins.args[a].kind = s[0] == 'x' ? OperandKind::Var
+      ins.args[a].kind = s[0] == 'x'   ? OperandKind::Var
                          : s[0] == 'c' ? OperandKind::Const
                                        : OperandKind::Reg;
       ins.args[a].index = static_cast<uint8_t>(idx);

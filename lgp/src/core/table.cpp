@@ -37,8 +37,7 @@ Status Table::validate() const {
     double sum = 0;
     for (size_t r = 0; r < n; ++r) {
       if (!std::isfinite(weights[r]) || weights[r] < 0)
-        return Status::error("weights, row " + std::to_string(r + 1) +
-                             ": must be finite and >= 0");
+        return Status::error("weights, row " + std::to_string(r + 1) + ": must be finite and >= 0");
       sum += weights[r];
     }
     if (!(sum > 0)) return Status::error("weights sum to zero");
@@ -98,8 +97,8 @@ Expected<RawTable> readCsv(const std::filesystem::path& path) {
     if (t.names[c].empty())
       return Status::error(f + ": header, column " + std::to_string(c + 1) + ": empty name");
     if (!seen.insert(t.names[c]).second)
-      return Status::error(f + ": header, column " + std::to_string(c + 1) + " ('" +
-                           t.names[c] + "'): duplicate name");
+      return Status::error(f + ": header, column " + std::to_string(c + 1) + " ('" + t.names[c] +
+                           "'): duplicate name");
   }
   t.columns.resize(t.names.size());
   while (std::getline(in, line)) {

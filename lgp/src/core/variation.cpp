@@ -37,7 +37,8 @@ Operand fixOperand(Operand o, int pos, const ProgramShape& shape, Rng& rng) {
 
 void repairAll(Program& p, const ProgramShape& shape, Rng& rng) {
   for (int i = 0; i < static_cast<int>(p.code.size()); ++i)
-    for (int a = 0; a < kMaxArity; ++a) p.code[i].args[a] = fixOperand(p.code[i].args[a], i, shape, rng);
+    for (int a = 0; a < kMaxArity; ++a)
+      p.code[i].args[a] = fixOperand(p.code[i].args[a], i, shape, rng);
   syncOutputs(p, shape);
 }
 
@@ -91,7 +92,8 @@ Program randomProgram(const ProgramShape& shape, const InitConfig& init, Rng& rn
   if (shape.output_mode == OutputMode::Designated) {
     const int n = static_cast<int>(p.code.size());
     for (size_t k = 0; k < p.outputs.size(); ++k)
-      p.outputs[k] = static_cast<uint8_t>(n - static_cast<int>(p.outputs.size()) + static_cast<int>(k));
+      p.outputs[k] =
+          static_cast<uint8_t>(n - static_cast<int>(p.outputs.size()) + static_cast<int>(k));
   }
   return p;
 }
@@ -120,7 +122,8 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
     Instr ins = b.code[p];
     for (int q = 0; q < arity(ins.op); ++q) {
       Operand& o = ins.args[q];
-      if (o.kind == OperandKind::Reg && o.index >= k) o.index = static_cast<uint8_t>(o.index - k + i);
+      if (o.kind == OperandKind::Reg && o.index >= k)
+        o.index = static_cast<uint8_t>(o.index - k + i);
     }
     c.code.push_back(ins);
   }
@@ -235,8 +238,10 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng) {
       for (int a = 0; a < arity(p.code[i].op); ++a) {
         Operand& o = p.code[i].args[a];
         if (o.kind != OperandKind::Reg) continue;
-        if (o.index == pos) o = repl;
-        else if (o.index > pos) --o.index;
+        if (o.index == pos)
+          o = repl;
+        else if (o.index > pos)
+          --o.index;
       }
     if (shape.output_mode == OutputMode::Designated)
       for (auto& o : p.outputs)

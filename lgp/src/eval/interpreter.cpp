@@ -21,7 +21,9 @@ float* allocAligned(size_t n) {
   if (!p) throw std::bad_alloc();
   return static_cast<float*>(p);
 }
-void freeAligned(float* p) { std::free(p); }
+void freeAligned(float* p) {
+  std::free(p);
+}
 
 template <Op OP>
 void kernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
@@ -37,10 +39,13 @@ constexpr std::array<Kernel, kNumOps> kKernels = {
 };
 }  // namespace
 
-Kernel kernelFor(Op op) { return kKernels[static_cast<int>(op)]; }
+Kernel kernelFor(Op op) {
+  return kKernels[static_cast<int>(op)];
+}
 
 Dataset::Dataset(const Table& t, int block_size) : rows_(t.rows()), block_(block_size) {
-  if (block_ < 16 || block_ % 16 != 0) throw std::invalid_argument("block size must be a multiple of 16");
+  if (block_ < 16 || block_ % 16 != 0)
+    throw std::invalid_argument("block size must be a multiple of 16");
   padded_ = rows_ == 0 ? block_ : ((rows_ + block_ - 1) / block_) * block_;
   inputs_.resize(t.numInputs());
   for (size_t i = 0; i < t.numInputs(); ++i) {
@@ -100,7 +105,8 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
 }
 
 Interpreter::Interpreter(int block_size) : block_(block_size), scratch_(nullptr, &freeAligned) {
-  if (block_ < 16 || block_ % 16 != 0) throw std::invalid_argument("block size must be a multiple of 16");
+  if (block_ < 16 || block_ % 16 != 0)
+    throw std::invalid_argument("block size must be a multiple of 16");
   reserve(64);
 }
 
@@ -137,7 +143,8 @@ const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, 
 }
 
 std::vector<std::vector<float>> Interpreter::evaluate(const Program& p, const Dataset& ds) {
-  if (ds.blockSize() != block_) throw std::invalid_argument("dataset and interpreter block sizes differ");
+  if (ds.blockSize() != block_)
+    throw std::invalid_argument("dataset and interpreter block sizes differ");
   BoundProgram bp;
   bp.bind(p, ds.numInputs());
   std::vector<std::vector<float>> out(p.outputs.size(), std::vector<float>(ds.rows()));

@@ -23,18 +23,28 @@ std::optional<E> fromNames(std::string_view s, const std::string_view (&names)[N
 template <class T>
 inline T invert(TargetTransform t, T v) {
   switch (t) {
-    case TargetTransform::None: return v;
-    case TargetTransform::Log: return sem::apply<Op::Exp, T>(v, v, v, v);
-    case TargetTransform::Sqrt: return v > T(0) ? v * v : T(0);
-    case TargetTransform::Rcp: return sem::apply<Op::Rcp, T>(v, v, v, v);
+    case TargetTransform::None:
+      return v;
+    case TargetTransform::Log:
+      return sem::apply<Op::Exp, T>(v, v, v, v);
+    case TargetTransform::Sqrt:
+      return v > T(0) ? v * v : T(0);
+    case TargetTransform::Rcp:
+      return sem::apply<Op::Rcp, T>(v, v, v, v);
   }
   return v;
 }
 }  // namespace
 
-std::string_view toString(ErrorMetric m) { return kMetricNames[static_cast<int>(m)]; }
-std::string_view toString(TargetTransform t) { return kTransformNames[static_cast<int>(t)]; }
-std::string_view toString(OutputCombine c) { return kCombineNames[static_cast<int>(c)]; }
+std::string_view toString(ErrorMetric m) {
+  return kMetricNames[static_cast<int>(m)];
+}
+std::string_view toString(TargetTransform t) {
+  return kTransformNames[static_cast<int>(t)];
+}
+std::string_view toString(OutputCombine c) {
+  return kCombineNames[static_cast<int>(c)];
+}
 std::optional<ErrorMetric> errorMetricFromString(std::string_view s) {
   return fromNames<ErrorMetric>(s, kMetricNames);
 }
@@ -47,14 +57,20 @@ std::optional<OutputCombine> outputCombineFromString(std::string_view s) {
 
 double applyTransform(TargetTransform t, double y) {
   switch (t) {
-    case TargetTransform::None: return y;
-    case TargetTransform::Log: return std::log(std::max(y, static_cast<double>(kMinPos)));
-    case TargetTransform::Sqrt: return std::sqrt(std::max(y, 0.0));
-    case TargetTransform::Rcp: return 1.0 / sem::guard(y);
+    case TargetTransform::None:
+      return y;
+    case TargetTransform::Log:
+      return std::log(std::max(y, static_cast<double>(kMinPos)));
+    case TargetTransform::Sqrt:
+      return std::sqrt(std::max(y, 0.0));
+    case TargetTransform::Rcp:
+      return 1.0 / sem::guard(y);
   }
   return y;
 }
-double invertTransform(TargetTransform t, double v) { return invert<double>(t, v); }
+double invertTransform(TargetTransform t, double v) {
+  return invert<double>(t, v);
+}
 
 CostModel CostModel::preset(CostTarget t) {
   CostModel m;
@@ -73,10 +89,17 @@ double CostModel::transformCost(const std::vector<TargetTransform>& ts) const {
   double c = 0;
   for (auto t : ts) {
     switch (t) {
-      case TargetTransform::None: break;
-      case TargetTransform::Log: c += cost[static_cast<int>(Op::Exp)]; break;
-      case TargetTransform::Sqrt: c += cost[static_cast<int>(Op::Square)]; break;
-      case TargetTransform::Rcp: c += cost[static_cast<int>(Op::Rcp)]; break;
+      case TargetTransform::None:
+        break;
+      case TargetTransform::Log:
+        c += cost[static_cast<int>(Op::Exp)];
+        break;
+      case TargetTransform::Sqrt:
+        c += cost[static_cast<int>(Op::Square)];
+        break;
+      case TargetTransform::Rcp:
+        c += cost[static_cast<int>(Op::Rcp)];
+        break;
     }
   }
   return c;
@@ -175,10 +198,18 @@ double Scorer::error(const Program& p) {
 
 double Scorer::error(const BoundProgram& bp) {
   switch (cfg_.metric) {
-    case ErrorMetric::Rmse: run<0>(bp, acc_); break;
-    case ErrorMetric::MaxAbs: run<1>(bp, acc_); break;
-    case ErrorMetric::Mae: run<2>(bp, acc_); break;
-    case ErrorMetric::MeanRel: run<3>(bp, acc_); break;
+    case ErrorMetric::Rmse:
+      run<0>(bp, acc_);
+      break;
+    case ErrorMetric::MaxAbs:
+      run<1>(bp, acc_);
+      break;
+    case ErrorMetric::Mae:
+      run<2>(bp, acc_);
+      break;
+    case ErrorMetric::MeanRel:
+      run<3>(bp, acc_);
+      break;
   }
   const double inf = std::numeric_limits<double>::infinity();
   const double ws = ds_.weightSum();
@@ -187,10 +218,18 @@ double Scorer::error(const BoundProgram& bp) {
     if (!(a.chk == 0.0f)) return inf;
     double e = 0;
     switch (cfg_.metric) {
-      case ErrorMetric::Rmse: e = std::sqrt(a.sse / ws); break;
-      case ErrorMetric::MaxAbs: e = a.maxabs; break;
-      case ErrorMetric::Mae: e = a.sae / ws; break;
-      case ErrorMetric::MeanRel: e = a.srel / ws; break;
+      case ErrorMetric::Rmse:
+        e = std::sqrt(a.sse / ws);
+        break;
+      case ErrorMetric::MaxAbs:
+        e = a.maxabs;
+        break;
+      case ErrorMetric::Mae:
+        e = a.sae / ws;
+        break;
+      case ErrorMetric::MeanRel:
+        e = a.srel / ws;
+        break;
     }
     if (!std::isfinite(e)) return inf;
     combined = cfg_.combine == OutputCombine::Max ? std::max(combined, e) : combined + e;
@@ -222,7 +261,8 @@ std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& t,
   std::vector<OutputMetrics> out(pred.size());
   const size_t n = t.rows();
   for (size_t o = 0; o < pred.size(); ++o) {
-    const TargetTransform tr = o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
+    const TargetTransform tr =
+        o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
     double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
     bool finite = true;
     for (size_t r = 0; r < n; ++r) {
@@ -259,10 +299,18 @@ double combineError(const std::vector<OutputMetrics>& m, const ErrorConfig& cfg)
   for (const auto& om : m) {
     double e = 0;
     switch (cfg.metric) {
-      case ErrorMetric::Rmse: e = om.rmse; break;
-      case ErrorMetric::MaxAbs: e = om.max_abs; break;
-      case ErrorMetric::Mae: e = om.mae; break;
-      case ErrorMetric::MeanRel: e = om.mean_rel; break;
+      case ErrorMetric::Rmse:
+        e = om.rmse;
+        break;
+      case ErrorMetric::MaxAbs:
+        e = om.max_abs;
+        break;
+      case ErrorMetric::Mae:
+        e = om.mae;
+        break;
+      case ErrorMetric::MeanRel:
+        e = om.mean_rel;
+        break;
     }
     if (!std::isfinite(e)) return std::numeric_limits<double>::infinity();
     combined = cfg.combine == OutputCombine::Max ? std::max(combined, e) : combined + e;

@@ -8,15 +8,20 @@
 namespace lgp {
 
 namespace {
-nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json num(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
 double getNum(const nlohmann::json& j, const char* k) {
   return j.contains(k) && j[k].is_number() ? j[k].get<double>() : INFINITY;
 }
 }  // namespace
 
 nlohmann::json metricsToJson(const OutputMetrics& m) {
-  return {{"rmse", num(m.rmse)}, {"max_abs", num(m.max_abs)}, {"mae", num(m.mae)},
-          {"mean_rel", num(m.mean_rel)}, {"r2", num(m.r2)}};
+  return {{"rmse", num(m.rmse)},
+          {"max_abs", num(m.max_abs)},
+          {"mae", num(m.mae)},
+          {"mean_rel", num(m.mean_rel)},
+          {"r2", num(m.r2)}};
 }
 
 nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front) {
@@ -36,7 +41,8 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
   for (size_t k = 0; k < front.size(); ++k) {
     const FrontEntry& e = front[k];
     nlohmann::json costs = nlohmann::json::object();
-    for (int c = 0; c < kNumCostTargets; ++c) costs[std::string(kCostTargetNames[c])] = e.cost_by_target[c];
+    for (int c = 0; c < kNumCostTargets; ++c)
+      costs[std::string(kCostTargetNames[c])] = e.cost_by_target[c];
     nlohmann::json outs = nlohmann::json::array();
     for (size_t o = 0; o < t.numOutputs(); ++o) {
       outs.push_back({{"name", t.output_names[o]},
@@ -57,11 +63,17 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
   return {{"format", "lgp-front/1"},
           {"config", toJson(cfg)},
           {"table",
-           {{"inputs", t.input_names}, {"outputs", t.output_names}, {"rows", t.rows()},
-            {"domain", domain}, {"weighted", !t.weights.empty()}, {"meta", t.meta}}},
+           {{"inputs", t.input_names},
+            {"outputs", t.output_names},
+            {"rows", t.rows()},
+            {"domain", domain},
+            {"weighted", !t.weights.empty()},
+            {"meta", t.meta}}},
           {"progress",
-           {{"generation", p.generation}, {"evaluations", p.evaluations},
-            {"elapsed_s", p.elapsed_s}, {"stop_reason", p.stop_reason},
+           {{"generation", p.generation},
+            {"evaluations", p.evaluations},
+            {"elapsed_s", p.elapsed_s},
+            {"stop_reason", p.stop_reason},
             {"threads", s.threads()}}},
           {"cost_model", std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
@@ -168,8 +180,8 @@ std::string formatFrontTable(const nlohmann::json& front) {
   std::ostringstream os;
   const auto& outs = front.at("table").at("outputs");
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s  %s\n", "#", "cost", "disc",
-                "error", "rmse", "max_abs", "expression");
+  std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s  %s\n", "#", "cost", "disc", "error",
+                "rmse", "max_abs", "expression");
   os << buf;
   for (const auto& m : front.at("members")) {
     bool first = true;

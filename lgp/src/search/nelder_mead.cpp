@@ -39,7 +39,8 @@ NelderMeadResult nelderMead(const std::function<double(const std::vector<double>
     return res;
   }
   double step_scale = 1.0;
-  for (int restart = 0; restart <= cfg.restarts && res.evaluations < cfg.max_evaluations; ++restart) {
+  for (int restart = 0; restart <= cfg.restarts && res.evaluations < cfg.max_evaluations;
+       ++restart) {
     // Simplex: best point plus one vertex per coordinate, each displaced along the axis and
     // slightly along a random direction so the simplex is never degenerate.
     std::vector<Vec> s(n + 1, best);

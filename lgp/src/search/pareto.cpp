@@ -10,39 +10,35 @@ namespace lgp {
 bool dominates(const Objectives& a, const Objectives& b) {
   if (!a.finite()) return false;
   if (!b.finite()) return true;
-  const bool no_worse = a.error <= b.error && a.cost <= b.cost && a.discontinuity <= b.discontinuity;
+  const bool no_worse =
+      a.error <= b.error && a.cost <= b.cost && a.discontinuity <= b.discontinuity;
   const bool better = a.error < b.error || a.cost < b.cost || a.discontinuity < b.discontinuity;
   return no_worse && better;
 }
 
 std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
+  // Sorted lexicographically, an individual can only be dominated by one before it, so
+  // rank(i) = 1 + max rank of its dominators, in one O(n^2) sweep without allocation per pair.
   const int n = static_cast<int>(objs.size());
-  std::vector<int> rank(n, 0), count(n, 0);
-  std::vector<std::vector<int>> dominated(n);
-  std::vector<int> current;
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      if (dominates(objs[i], objs[j])) {
-        dominated[i].push_back(j);
-        ++count[j];
-      } else if (dominates(objs[j], objs[i])) {
-        dominated[j].push_back(i);
-        ++count[i];
-      }
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  auto key = [&](int i) {
+    return objs[i].finite() ? objs[i].error : std::numeric_limits<double>::infinity();
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (key(a) != key(b)) return key(a) < key(b);
+    if (objs[a].cost != objs[b].cost) return objs[a].cost < objs[b].cost;
+    return objs[a].discontinuity < objs[b].discontinuity;
+  });
+  std::vector<int> rank(n, 0);
+  for (int k = 0; k < n; ++k) {
+    const Objectives& oi = objs[order[k]];
+    int r = 0;
+    for (int m = 0; m < k; ++m) {
+      const int j = order[m];
+      if (rank[j] + 1 > r && dominates(objs[j], oi)) r = rank[j] + 1;
     }
-  }
-  for (int i = 0; i < n; ++i)
-    if (count[i] == 0) current.push_back(i);
-  int r = 0;
-  while (!current.empty()) {
-    std::vector<int> next;
-    for (int i : current) {
-      rank[i] = r;
-      for (int j : dominated[i])
-        if (--count[j] == 0) next.push_back(j);
-    }
-    current.swap(next);
-    ++r;
+    rank[order[k]] = r;
   }
   return rank;
 }
@@ -91,11 +87,13 @@ Archive::Box Archive::box(const Objectives& o) const {
     return static_cast<long long>(std::floor(v / eps));
   };
   const double le = std::log10(std::max(o.error, 1e-30));
-  return {q(le, cfg_.eps_log10_error), q(o.cost, cfg_.eps_cost), q(o.discontinuity, cfg_.eps_discontinuity)};
+  return {q(le, cfg_.eps_log10_error), q(o.cost, cfg_.eps_cost),
+          q(o.discontinuity, cfg_.eps_discontinuity)};
 }
 
 namespace {
-bool boxDominates(long long ae, long long ac, long long ad, long long be, long long bc, long long bd) {
+bool boxDominates(long long ae, long long ac, long long ad, long long be, long long bc,
+                  long long bd) {
   return ae <= be && ac <= bc && ad <= bd && (ae < be || ac < bc || ad < bd);
 }
 }  // namespace
@@ -108,8 +106,8 @@ bool Archive::insert(const Program& p, const Objectives& o, bool refined) {
     if (boxDominates(mb.e, mb.c, mb.d, b.e, b.c, b.d)) return false;
     if (mb.e == b.e && mb.c == b.c && mb.d == b.d) {
       // Same box: keep the dominating one, else the one with lower error (then lower cost).
-      if (dominates(m.obj, o) || !(o.error < m.obj.error ||
-                                   (o.error == m.obj.error && o.cost < m.obj.cost)))
+      if (dominates(m.obj, o) ||
+          !(o.error < m.obj.error || (o.error == m.obj.error && o.cost < m.obj.cost)))
         return false;
     }
   }

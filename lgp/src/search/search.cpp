@@ -51,7 +51,8 @@ Expected<Table> loadTableFile(const DataConfig& data, const std::filesystem::pat
 Search::Search(RunConfig cfg, Table table)
     : cfg_(std::move(cfg)),
       table_(std::move(table)),
-      shape_(cfg_.shape(static_cast<int>(table_.numInputs()), static_cast<int>(table_.numOutputs()))),
+      shape_(
+          cfg_.shape(static_cast<int>(table_.numInputs()), static_cast<int>(table_.numOutputs()))),
       err_cfg_(cfg_.errorConfig(table_.output_names)),
       cost_(cfg_.costModel()),
       disc_(cfg_.discontinuityModel()),
@@ -85,9 +86,10 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   return o;
 }
 
-void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals) const {
+void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals,
+                       bool full) const {
   const auto slots = effectiveConstants(ind.program);
-  ind.refined = true;
+  if (full) ind.refined = true;
   if (slots.empty() || !ind.obj.finite()) return;
   Program work = ind.program;
   std::vector<double> x0;
@@ -101,15 +103,23 @@ void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& eval
     return s.error(work);
   };
   Rng rng(seed);
-  const auto res = nelderMead(f, x0, cfg_.search.refine.nm, rng);
+  NelderMeadConfig nm = cfg_.search.refine.nm;
+  if (!full) {
+    nm.max_evaluations = cfg_.search.refine.offspring_evaluations;
+    nm.restarts = 0;
+  }
+  const auto res = nelderMead(f, x0, nm, rng);
   evals += static_cast<uint64_t>(res.evaluations);
   if (res.f < ind.obj.error) {
-    for (size_t k = 0; k < slots.size(); ++k) ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
+    for (size_t k = 0; k < slots.size(); ++k)
+      ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
     const double e = s.error(ind.program);
     ++evals;
-    if (std::isfinite(e) && e <= ind.obj.error) ind.obj.error = e;
+    if (std::isfinite(e) && e <= ind.obj.error)
+      ind.obj.error = e;
     else
-      for (size_t k = 0; k < slots.size(); ++k) ind.program.constants[slots[k]] = static_cast<float>(x0[k]);
+      for (size_t k = 0; k < slots.size(); ++k)
+        ind.program.constants[slots[k]] = static_cast<float>(x0[k]);
   }
 }
 
@@ -123,7 +133,8 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
     inds[i].obj = score(s, inds[i].program);
     ++evals;
     if (!refine.empty() && refine[i])
-      refineOne(s, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3), evals);
+      refineOne(s, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3), evals,
+                false);
   }
   evaluations_ += evals;
   session_evals_ += evals;
@@ -133,20 +144,22 @@ void Search::rankPopulation() {
   // Duplicated objective vectors rank after every distinct one: they add nothing to the front
   // and would otherwise crowd it out (the classic bloat of trivial programs).
   const int n = static_cast<int>(pop_.size());
-  std::vector<int> uniq, dup;
-  for (int i = 0; i < n; ++i) {
-    bool is_dup = false;
-    for (int j : uniq) {
-      const auto& a = pop_[i].obj;
-      const auto& b = pop_[j].obj;
-      if ((a.error == b.error || (!a.finite() && !b.finite())) && a.cost == b.cost &&
-          a.discontinuity == b.discontinuity) {
-        is_dup = true;
-        break;
-      }
-    }
-    (is_dup ? dup : uniq).push_back(i);
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  auto err = [&](int i) { return pop_[i].obj.finite() ? pop_[i].obj.error : kInf; };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    if (err(a) != err(b)) return err(a) < err(b);
+    if (pop_[a].obj.cost != pop_[b].obj.cost) return pop_[a].obj.cost < pop_[b].obj.cost;
+    return pop_[a].obj.discontinuity < pop_[b].obj.discontinuity;
+  });
+  std::vector<uint8_t> is_dup(n, 0);
+  for (int k = 1; k < n; ++k) {
+    const int a = order[k - 1], b = order[k];
+    is_dup[b] = err(a) == err(b) && pop_[a].obj.cost == pop_[b].obj.cost &&
+                pop_[a].obj.discontinuity == pop_[b].obj.discontinuity;
   }
+  std::vector<int> uniq, dup;
+  for (int i = 0; i < n; ++i) (is_dup[i] ? dup : uniq).push_back(i);
   std::vector<Objectives> objs;
   for (int i : uniq) objs.push_back(pop_[i].obj);
   const auto r = nondominatedRanks(objs);
@@ -189,10 +202,15 @@ void Search::survive(std::vector<Individual>& pool) {
 
 int Search::tournament(Rng& rng) const {
   const int n = static_cast<int>(pop_.size());
+  const bool by_error = rng.chance(cfg_.search.error_bias);
   int best = static_cast<int>(rng.below(n));
   for (int t = 1; t < cfg_.search.tournament_size; ++t) {
     const int c = static_cast<int>(rng.below(n));
-    if (rank_[c] < rank_[best] || (rank_[c] == rank_[best] && crowd_[c] > crowd_[best])) best = c;
+    if (by_error) {
+      if (pop_[c].obj.error < pop_[best].obj.error) best = c;
+    } else if (rank_[c] < rank_[best] || (rank_[c] == rank_[best] && crowd_[c] > crowd_[best])) {
+      best = c;
+    }
   }
   return best;
 }
@@ -238,7 +256,8 @@ void Search::step() {
     if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng);
     if (rng.chance(var.micro_rate)) {
       const int m = 1 + static_cast<int>(rng.below(var.micro_max));
-      for (int k = 0; k < m; ++k) microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias);
+      for (int k = 0; k < m; ++k)
+        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias);
     }
     off[i].program = std::move(child);
   }
@@ -275,7 +294,7 @@ void Search::refineArchive() {
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1) reduction(+ : evals)
   for (int i = 0; i < n; ++i)
     refineOne(scorer(omp_get_thread_num()), inds[i],
-              hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 4), evals);
+              hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 4), evals, true);
   evaluations_ += evals;
   session_evals_ += evals;
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
@@ -295,7 +314,9 @@ std::string Search::stopReason() const {
   return "";
 }
 
-bool Search::done() const { return !stopReason().empty(); }
+bool Search::done() const {
+  return !stopReason().empty();
+}
 
 void Search::run(const std::function<void(const SearchProgress&)>& on_progress) {
   auto last = std::chrono::steady_clock::now();
@@ -306,8 +327,8 @@ void Search::run(const std::function<void(const SearchProgress&)>& on_progress) 
   while (!done()) {
     step();
     const auto now = std::chrono::steady_clock::now();
-    if (on_progress && std::chrono::duration<double>(now - last).count() >=
-                           cfg_.output.progress_interval_s) {
+    if (on_progress &&
+        std::chrono::duration<double>(now - last).count() >= cfg_.output.progress_interval_s) {
       on_progress(progress());
       last = now;
     }
@@ -353,7 +374,8 @@ std::vector<FrontEntry> Search::front() const {
   const auto members = archive_.sorted();
   std::vector<FrontEntry> out(members.size());
   std::array<CostModel, kNumCostTargets> models;
-  for (int t = 0; t < kNumCostTargets; ++t) models[t] = CostModel::preset(static_cast<CostTarget>(t));
+  for (int t = 0; t < kNumCostTargets; ++t)
+    models[t] = CostModel::preset(static_cast<CostTarget>(t));
   const int n = static_cast<int>(members.size());
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
   for (int i = 0; i < n; ++i) {
@@ -364,7 +386,8 @@ std::vector<FrontEntry> Search::front() const {
     e.metrics = s.metrics(e.program);
     e.metrics_ref = referenceMetrics(e.program, table_, err_cfg_);
     for (int t = 0; t < kNumCostTargets; ++t)
-      e.cost_by_target[t] = models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
+      e.cost_by_target[t] =
+          models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
     e.infix = toInfix(e.program, table_.input_names);
   }
   return out;
@@ -390,10 +413,12 @@ std::string Search::configDigest() const {
 nlohmann::json Search::checkpoint() const {
   nlohmann::json pop = nlohmann::json::array();
   for (const auto& ind : pop_)
-    pop.push_back({{"program", toJson(ind.program)}, {"obj", objToJson(ind.obj)}, {"refined", ind.refined}});
+    pop.push_back(
+        {{"program", toJson(ind.program)}, {"obj", objToJson(ind.obj)}, {"refined", ind.refined}});
   nlohmann::json arch = nlohmann::json::array();
   for (const auto& m : archive_.members())
-    arch.push_back({{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
+    arch.push_back(
+        {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
   return {{"format", "lgp-checkpoint/1"},
           {"config_digest", configDigest()},
           {"initialized", initialized_},
@@ -406,7 +431,8 @@ nlohmann::json Search::checkpoint() const {
 
 Status Search::restore(const nlohmann::json& st) {
   try {
-    if (st.value("format", "") != "lgp-checkpoint/1") return Status::error("checkpoint: unknown format");
+    if (st.value("format", "") != "lgp-checkpoint/1")
+      return Status::error("checkpoint: unknown format");
     if (st.at("config_digest").get<std::string>() != configDigest())
       return Status::error("checkpoint: made with a different config or table");
     std::vector<Individual> pop;

@@ -33,13 +33,13 @@
 namespace lgp {
 
 struct DataConfig {
-  std::string path;                   // CSV or JSON table; relative to the config file
-  std::string scene;                  // or a scene JSON for the datasets/ generators
-  std::vector<std::string> inputs;    // input column names; empty = the file's declared inputs
-  std::vector<std::string> outputs;   // output column names; empty = the file's declared outputs
-  std::string weights;                // per-row weight column; empty = file weights or uniform
+  std::string path;                  // CSV or JSON table; relative to the config file
+  std::string scene;                 // or a scene JSON for the datasets/ generators
+  std::vector<std::string> inputs;   // input column names; empty = the file's declared inputs
+  std::vector<std::string> outputs;  // output column names; empty = the file's declared outputs
+  std::string weights;               // per-row weight column; empty = file weights or uniform
   std::map<std::string, TargetTransform> transforms;  // fit T(y) for these outputs
-  std::string cache_dir;              // generated-table cache (scene only); empty = default
+  std::string cache_dir;  // generated-table cache (scene only); empty = default
 };
 
 struct ProgramConfig {
@@ -49,7 +49,7 @@ struct ProgramConfig {
   std::vector<Op> ops;                        // allowed operators; empty = kDefaultOps
   int init_min_length = 2;                    // random initial programs: length range
   int init_max_length = 12;
-  double const_min = -2.0;                    // initial constants: uniform in [min, max]
+  double const_min = -2.0;  // initial constants: uniform in [min, max]
   double const_max = 2.0;
 };
 
@@ -58,34 +58,37 @@ struct ObjectiveConfig {
   OutputCombine combine = OutputCombine::Mean;  // across outputs
   double rel_floor = 1e-6;                      // denominator floor of mean_rel
   CostTarget cost_model = CostTarget::GpuGeneric;
-  std::map<Op, double> cost_overrides;          // per-operator cost replacing the model's
-  std::map<Op, double> discontinuity_weights;   // per-operator weight replacing the default
+  std::map<Op, double> cost_overrides;         // per-operator cost replacing the model's
+  std::map<Op, double> discontinuity_weights;  // per-operator weight replacing the default
 };
 
 struct VariationConfig {
-  double crossover_rate = 0.6;   // offspring made by two-segment crossover, then mutated
-  double macro_rate = 0.3;       // chance of an insertion or deletion
-  double micro_rate = 0.9;       // chance of 1..micro_max micro mutations
-  int micro_max = 2;             // micro mutations per offspring, at most
-  double constant_sigma = 0.2;   // relative Gaussian step of a constant mutation
-  double effective_bias = 0.9;   // chance a micro mutation targets an effective opcode
+  double crossover_rate = 0.6;  // offspring made by two-segment crossover, then mutated
+  double macro_rate = 0.3;      // chance of an insertion or deletion
+  double micro_rate = 0.9;      // chance of 1..micro_max micro mutations
+  int micro_max = 2;            // micro mutations per offspring, at most
+  double constant_sigma = 0.2;  // relative Gaussian step of a constant mutation
+  double effective_bias = 0.9;  // chance a micro mutation targets an effective opcode
 };
 
 struct NelderMeadSchedule {
-  double offspring_share = 0.02;  // share of each generation's offspring refined
-  int archive_period = 10;        // refine archive members not yet refined every N generations
-  int archive_max = 32;           // archive members refined per period, at most
-  NelderMeadConfig nm;            // per-call budget and coefficients
+  double offspring_share = 0.1;    // share of each generation's offspring given a quick polish
+  int offspring_evaluations = 60;  // budget of that quick polish (no restarts)
+  int archive_period = 10;         // every N generations, fully refine unrefined archive members
+  int archive_max = 32;            // archive members refined per period, at most
+  NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients
 };
 
 struct SearchConfig {
-  int population = 400;             // individuals per generation (>= 4)
-  int generations = 100;            // budget; 0 = unlimited (then another budget must be set)
-  uint64_t max_evaluations = 0;     // budget in program evaluations; 0 = unlimited
-  double wall_time_s = 0;           // budget in seconds; 0 = unlimited
-  uint64_t seed = 1;                // same seed + config + threads => same front
-  int threads = 0;                  // OpenMP threads; 0 = all cores
-  int tournament_size = 2;          // NSGA-II binary tournament by default
+  int population = 400;          // individuals per generation (>= 4)
+  int generations = 100;         // budget; 0 = unlimited (then another budget must be set)
+  uint64_t max_evaluations = 0;  // budget in program evaluations; 0 = unlimited
+  double wall_time_s = 0;        // budget in seconds; 0 = unlimited
+  uint64_t seed = 1;             // same seed + config + threads => same front
+  int threads = 0;               // OpenMP threads; 0 = all cores
+  int tournament_size = 2;       // NSGA-II binary tournament by default
+  double error_bias = 0.0;       // share of tournaments decided by error alone, not (rank,
+                                 // crowding): steers the search to the accurate end
   VariationConfig variation;
   NelderMeadSchedule refine;
   ArchiveConfig archive;

@@ -49,49 +49,45 @@ inline constexpr std::array<std::string_view, kNumCostTargets> kCostTargetNames 
 // X(Enum, name, arity, piecewise, {generic, nvidia, gcn, rdna, cpu}, infix, hlsl, glsl, cpp)
 // Templates use {0}..{3} for operands. `infix` is the readable form printed in fronts and
 // accepted by the parser; it names protected functions by their op name.
-#define LGP_OPS(X)                                                                             \
-  X(Add, "add", 2, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",        \
-    "({0} + {1})")                                                                             \
-  X(Sub, "sub", 2, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",        \
-    "({0} - {1})")                                                                             \
-  X(Mul, "mul", 2, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",        \
-    "({0} * {1})")                                                                             \
-  X(Div, "div", 2, false, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",        \
-    "({0} / {1})")                                                                             \
-  X(Mad, "mad", 3, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",         \
-    "({0} * {1} + {2})", "({0} * {1} + {2})")                                                  \
-  X(Neg, "neg", 1, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")             \
-  X(Rcp, "rcp", 1, false, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})",             \
-    "(1.0f / {0})")                                                                            \
-  X(Sqrt, "sqrt", 1, false, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",            \
-    "std::sqrt({0})")                                                                          \
-  X(Rsqrt, "rsqrt", 1, false, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})", \
-    "(1.0f / std::sqrt({0}))")                                                                 \
-  X(Square, "square", 1, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})",                 \
-    "({0} * {0})", "({0} * {0})")                                                              \
-  X(Exp2, "exp2", 1, false, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",            \
-    "std::exp2({0})")                                                                          \
-  X(Log2, "log2", 1, false, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",            \
-    "std::log2({0})")                                                                          \
-  X(Exp, "exp", 1, false, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})") \
-  X(Log, "log", 1, false, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})", "std::log({0})") \
-  X(Pow, "pow", 2, false, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})",                  \
-    "pow({0}, {1})", "std::pow({0}, {1})")                                                     \
-  X(Sin, "sin", 1, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})",                \
-    "std::sin({0})")                                                                           \
-  X(Cos, "cos", 1, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})",                \
-    "std::cos({0})")                                                                           \
-  X(Min, "min", 2, true, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})", "min({0}, {1})",   \
-    "std::min({0}, {1})")                                                                      \
-  X(Max, "max", 2, true, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})", "max({0}, {1})",   \
-    "std::max({0}, {1})")                                                                      \
-  X(Abs, "abs", 1, true, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})",                  \
-    "std::fabs({0})")                                                                          \
-  X(Saturate, "saturate", 1, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",          \
-    "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                     \
-  X(Lerp, "lerp", 3, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})",     \
-    "mix({0}, {1}, {2})", "({0} + ({1} - {0}) * {2})")                                         \
-  X(Select, "select", 4, true, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",                  \
+#define LGP_OPS(X)                                                                                \
+  X(Add, "add", 2, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",           \
+    "({0} + {1})")                                                                                \
+  X(Sub, "sub", 2, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",           \
+    "({0} - {1})")                                                                                \
+  X(Mul, "mul", 2, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",           \
+    "({0} * {1})")                                                                                \
+  X(Div, "div", 2, false, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",           \
+    "({0} / {1})")                                                                                \
+  X(Mad, "mad", 3, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",            \
+    "({0} * {1} + {2})", "({0} * {1} + {2})")                                                     \
+  X(Neg, "neg", 1, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")                \
+  X(Rcp, "rcp", 1, false, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})", "(1.0f / {0})") \
+  X(Sqrt, "sqrt", 1, false, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",               \
+    "std::sqrt({0})")                                                                             \
+  X(Rsqrt, "rsqrt", 1, false, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})",    \
+    "(1.0f / std::sqrt({0}))")                                                                    \
+  X(Square, "square", 1, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})", "({0} * {0})",     \
+    "({0} * {0})")                                                                                \
+  X(Exp2, "exp2", 1, false, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",               \
+    "std::exp2({0})")                                                                             \
+  X(Log2, "log2", 1, false, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",               \
+    "std::log2({0})")                                                                             \
+  X(Exp, "exp", 1, false, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})")   \
+  X(Log, "log", 1, false, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})", "std::log({0})")   \
+  X(Pow, "pow", 2, false, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})", "pow({0}, {1})",    \
+    "std::pow({0}, {1})")                                                                         \
+  X(Sin, "sin", 1, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})", "std::sin({0})")  \
+  X(Cos, "cos", 1, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})", "std::cos({0})")  \
+  X(Min, "min", 2, true, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})", "min({0}, {1})",      \
+    "std::min({0}, {1})")                                                                         \
+  X(Max, "max", 2, true, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})", "max({0}, {1})",      \
+    "std::max({0}, {1})")                                                                         \
+  X(Abs, "abs", 1, true, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})", "std::fabs({0})")   \
+  X(Saturate, "saturate", 1, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",             \
+    "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                        \
+  X(Lerp, "lerp", 3, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})",        \
+    "mix({0}, {1}, {2})", "({0} + ({1} - {0}) * {2})")                                            \
+  X(Select, "select", 4, true, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",                     \
     "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})")
 
 enum class Op : uint8_t {
@@ -128,14 +124,24 @@ inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
 #undef LGP_X_COST
 }  // namespace detail
 
-constexpr const OpInfo& opInfo(Op op) { return detail::kOpTable[static_cast<int>(op)]; }
-constexpr int arity(Op op) { return opInfo(op).arity; }
-constexpr std::string_view opName(Op op) { return opInfo(op).name; }
-constexpr const std::array<OpInfo, kNumOps>& allOps() { return detail::kOpTable; }
+constexpr const OpInfo& opInfo(Op op) {
+  return detail::kOpTable[static_cast<int>(op)];
+}
+constexpr int arity(Op op) {
+  return opInfo(op).arity;
+}
+constexpr std::string_view opName(Op op) {
+  return opInfo(op).name;
+}
+constexpr const std::array<OpInfo, kNumOps>& allOps() {
+  return detail::kOpTable;
+}
 
 std::optional<Op> opFromString(std::string_view name);
 std::optional<CostTarget> costTargetFromString(std::string_view name);
-inline std::string_view toString(CostTarget t) { return kCostTargetNames[static_cast<int>(t)]; }
+inline std::string_view toString(CostTarget t) {
+  return kCostTargetNames[static_cast<int>(t)];
+}
 
 // A set of allowed operators, as a bitmask over Op.
 class OpSet {

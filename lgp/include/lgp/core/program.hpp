@@ -41,12 +41,12 @@ enum class OutputMode : uint8_t {
 
 // What every program of a run looks like. Shared by variation, evaluation and validation.
 struct ProgramShape {
-  int num_inputs = 1;          // input variables (table columns)
-  int num_outputs = 1;         // k
-  int max_length = 32;         // opcodes per program, 1..255
-  int num_constants = 8;       // constant slots per program, 0..255
+  int num_inputs = 1;     // input variables (table columns)
+  int num_outputs = 1;    // k
+  int max_length = 32;    // opcodes per program, 1..255
+  int num_constants = 8;  // constant slots per program, 0..255
   OutputMode output_mode = OutputMode::Last;
-  OpSet ops = OpSet::all();    // operators that variation may use
+  OpSet ops = OpSet::all();  // operators that variation may use
 };
 
 struct Program {

@@ -30,8 +30,9 @@ struct Table {
   std::vector<double> weights;               // empty = uniform
   nlohmann::json meta = nlohmann::json::object();
 
-  size_t rows() const { return inputs.empty() ? (outputs.empty() ? 0 : outputs[0].size())
-                                              : inputs[0].size(); }
+  size_t rows() const {
+    return inputs.empty() ? (outputs.empty() ? 0 : outputs[0].size()) : inputs[0].size();
+  }
   size_t numInputs() const { return inputs.size(); }
   size_t numOutputs() const { return outputs.size(); }
 

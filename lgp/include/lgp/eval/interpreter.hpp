@@ -40,7 +40,7 @@ class Dataset {
   int numOutputs() const { return static_cast<int>(targets_.size()); }
   const float* input(int i) const { return inputs_[i].data(); }
   const double* target(int o) const { return targets_[o].data(); }  // double ground truth
-  const double* weight() const { return weights_.data(); }           // always present
+  const double* weight() const { return weights_.data(); }          // always present
   double weightSum() const { return weight_sum_; }
 
  private:
@@ -52,8 +52,8 @@ class Dataset {
   double weight_sum_ = 0;
 };
 
-using Kernel = void (*)(float* out, const float* a, const float* b, const float* c,
-                        const float* d, int n);
+using Kernel = void (*)(float* out, const float* a, const float* b, const float* c, const float* d,
+                        int n);
 
 // A decoded program: effective opcodes only, operands as slot numbers.
 // Slots: [0, num_inputs) inputs, then constants, then registers.

@@ -14,8 +14,8 @@
 #include <limits>
 #include <map>
 #include <optional>
-#include <string_view>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "lgp/core/ops.hpp"
@@ -58,10 +58,10 @@ struct DiscontinuityModel {
 };
 
 struct ErrorConfig {
-  ErrorMetric metric = ErrorMetric::Rmse;        // the objective
-  OutputCombine combine = OutputCombine::Mean;   // across outputs
-  std::vector<TargetTransform> transforms;       // per output; empty = none
-  double rel_floor = 1e-6;                       // MeanRel divides by max(|y|, rel_floor)
+  ErrorMetric metric = ErrorMetric::Rmse;       // the objective
+  OutputCombine combine = OutputCombine::Mean;  // across outputs
+  std::vector<TargetTransform> transforms;      // per output; empty = none
+  double rel_floor = 1e-6;                      // MeanRel divides by max(|y|, rel_floor)
 };
 
 // Every metric of one output, measured on the original (untransformed) scale.

@@ -65,30 +65,54 @@ inline constexpr double kLn2 = 0.6931471805599453;
 // Result of operator OP on operands a..d (unused operands are ignored).
 template <Op OP, class T>
 inline T apply(T a, [[maybe_unused]] T b, [[maybe_unused]] T c, [[maybe_unused]] T d) {
-  if constexpr (OP == Op::Add) return a + b;
-  else if constexpr (OP == Op::Sub) return a - b;
-  else if constexpr (OP == Op::Mul) return a * b;
-  else if constexpr (OP == Op::Div) return a / guard(b);
-  else if constexpr (OP == Op::Mad) return a * b + c;
-  else if constexpr (OP == Op::Neg) return -a;
-  else if constexpr (OP == Op::Rcp) return T(1) / guard(a);
-  else if constexpr (OP == Op::Sqrt) return Math<T>::sqrt(a > T(0) ? a : T(0));
-  else if constexpr (OP == Op::Rsqrt) return T(1) / Math<T>::sqrt(floorPos(a));
-  else if constexpr (OP == Op::Square) return a * a;
-  else if constexpr (OP == Op::Exp2) return pexp2(a);
-  else if constexpr (OP == Op::Log2) return plog2(a);
-  else if constexpr (OP == Op::Exp) return pexp2(a * static_cast<T>(kLog2E));
-  else if constexpr (OP == Op::Log) return plog2(a) * static_cast<T>(kLn2);
-  else if constexpr (OP == Op::Pow) return pexp2(b * plog2(a));
-  else if constexpr (OP == Op::Sin) return Math<T>::sin(a);
-  else if constexpr (OP == Op::Cos) return Math<T>::cos(a);
-  else if constexpr (OP == Op::Min) return a < b ? a : b;
-  else if constexpr (OP == Op::Max) return a > b ? a : b;
-  else if constexpr (OP == Op::Abs) return std::fabs(a);
-  else if constexpr (OP == Op::Saturate) return a > T(0) ? (a < T(1) ? a : T(1)) : T(0);
-  else if constexpr (OP == Op::Lerp) return a + (b - a) * c;
-  else if constexpr (OP == Op::Select) return a > b ? c : d;
-  else static_assert(OP == Op::Add, "operator without semantics");
+  if constexpr (OP == Op::Add)
+    return a + b;
+  else if constexpr (OP == Op::Sub)
+    return a - b;
+  else if constexpr (OP == Op::Mul)
+    return a * b;
+  else if constexpr (OP == Op::Div)
+    return a / guard(b);
+  else if constexpr (OP == Op::Mad)
+    return a * b + c;
+  else if constexpr (OP == Op::Neg)
+    return -a;
+  else if constexpr (OP == Op::Rcp)
+    return T(1) / guard(a);
+  else if constexpr (OP == Op::Sqrt)
+    return Math<T>::sqrt(a > T(0) ? a : T(0));
+  else if constexpr (OP == Op::Rsqrt)
+    return T(1) / Math<T>::sqrt(floorPos(a));
+  else if constexpr (OP == Op::Square)
+    return a * a;
+  else if constexpr (OP == Op::Exp2)
+    return pexp2(a);
+  else if constexpr (OP == Op::Log2)
+    return plog2(a);
+  else if constexpr (OP == Op::Exp)
+    return pexp2(a * static_cast<T>(kLog2E));
+  else if constexpr (OP == Op::Log)
+    return plog2(a) * static_cast<T>(kLn2);
+  else if constexpr (OP == Op::Pow)
+    return pexp2(b * plog2(a));
+  else if constexpr (OP == Op::Sin)
+    return Math<T>::sin(a);
+  else if constexpr (OP == Op::Cos)
+    return Math<T>::cos(a);
+  else if constexpr (OP == Op::Min)
+    return a < b ? a : b;
+  else if constexpr (OP == Op::Max)
+    return a > b ? a : b;
+  else if constexpr (OP == Op::Abs)
+    return std::fabs(a);
+  else if constexpr (OP == Op::Saturate)
+    return a > T(0) ? (a < T(1) ? a : T(1)) : T(0);
+  else if constexpr (OP == Op::Lerp)
+    return a + (b - a) * c;
+  else if constexpr (OP == Op::Select)
+    return a > b ? c : d;
+  else
+    static_assert(OP == Op::Add, "operator without semantics");
 }
 
 // Runtime dispatch for scalar evaluation (reference evaluator, parser constant folding).

@@ -19,9 +19,13 @@
 namespace lgp::vm {
 
 #if defined(__FMA__) || defined(__FMA4__)
-inline float fmadd(float a, float b, float c) { return __builtin_fmaf(a, b, c); }
+inline float fmadd(float a, float b, float c) {
+  return __builtin_fmaf(a, b, c);
+}
 #else
-inline float fmadd(float a, float b, float c) { return a * b + c; }
+inline float fmadd(float a, float b, float c) {
+  return a * b + c;
+}
 #endif
 
 // Round to nearest integer for |x| < 2^22 without SSE4.1 (adding and subtracting 1.5*2^23).
@@ -58,7 +62,7 @@ inline float log2f(float x) {
   const float t = (m - 1.0f) / (m + 1.0f);  // |t| <= 0.1716
   const float t2 = t * t;
   // 2/ln2 * atanh(t) series to t^11: truncation < 2e-10.
-  float p = 0.26230819f;  // 2/(11 ln2)
+  float p = 0.26230819f;          // 2/(11 ln2)
   p = fmadd(p, t2, 0.32059890f);  // 2/(9 ln2)
   p = fmadd(p, t2, 0.41219858f);  // 2/(7 ln2)
   p = fmadd(p, t2, 0.57707802f);  // 2/(5 ln2)
@@ -111,7 +115,11 @@ inline float sinCosQuadrant(float x, int32_t shift) {
 }
 }  // namespace detail
 
-inline float sinf(float x) { return detail::sinCosQuadrant(x, 0); }
-inline float cosf(float x) { return detail::sinCosQuadrant(x, 1); }
+inline float sinf(float x) {
+  return detail::sinCosQuadrant(x, 0);
+}
+inline float cosf(float x) {
+  return detail::sinCosQuadrant(x, 1);
+}
 
 }  // namespace lgp::vm

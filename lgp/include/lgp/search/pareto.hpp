@@ -23,10 +23,10 @@ std::vector<double> crowdingDistance(const std::vector<Objectives>& objs,
                                      const std::vector<int>& front);
 
 struct ArchiveConfig {
-  int max_size = 256;             // hard bound on members
-  double eps_log10_error = 0.01;  // error box width in decades (1 % relative)
-  double eps_cost = 0.0;          // cost box width (0 = exact)
-  double eps_discontinuity = 0.0; // discontinuity box width (0 = exact)
+  int max_size = 256;              // hard bound on members
+  double eps_log10_error = 0.01;   // error box width in decades (1 % relative)
+  double eps_cost = 0.0;           // cost box width (0 = exact)
+  double eps_discontinuity = 0.0;  // discontinuity box width (0 = exact)
   Status validate() const;
 };
 

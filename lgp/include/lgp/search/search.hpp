@@ -6,11 +6,12 @@
 //      and micro/macro mutation. Offspring i of generation g draws from an RNG seeded with
 //      hash(seed, g, i), so variation is independent of thread scheduling.
 //   2. Offspring are scored in parallel (OpenMP over programs, one Scorer per thread).
-//   3. A share of offspring gets Nelder-Mead on its effective constants.
+//   3. A share of offspring gets a quick Nelder-Mead polish of its effective constants (this is
+//      what lets a right structure with wrong constants survive).
 //   4. Parents + offspring are ranked (duplicates of an objective vector go last), and the
 //      best N by (rank, crowding) survive (elitism).
-//   5. Offspring enter the archive; every `archive_period` generations unrefined archive
-//      members are refined and re-inserted.
+//   5. Offspring enter the archive; every `archive_period` generations archive members not yet
+//      fully refined get Nelder-Mead with restarts and the full budget, and are re-inserted.
 // Budgets: generations, evaluations (Nelder-Mead evaluations included), wall time, or a stop
 // request (Ctrl-C); the check happens between generations.
 //
@@ -32,10 +33,10 @@
 
 #include "lgp/config/config.hpp"
 #include "lgp/core/program.hpp"
+#include "lgp/core/rng.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
-#include "lgp/core/rng.hpp"
 #include "lgp/search/pareto.hpp"
 
 namespace lgp {
@@ -59,7 +60,7 @@ struct FrontEntry {
   std::vector<OutputMetrics> metrics;      // float32 interpreter, per output
   std::vector<OutputMetrics> metrics_ref;  // double reference evaluator, per output
   std::array<double, kNumCostTargets> cost_by_target{};
-  std::vector<std::string> infix;          // per output
+  std::vector<std::string> infix;  // per output
 };
 
 class Search {
@@ -98,12 +99,12 @@ class Search {
   struct Individual {
     Program program;
     Objectives obj;
-    bool refined = false;
+    bool refined = false;  // fully refined (archive-level Nelder-Mead)
   };
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
                    uint64_t stream);
   Objectives score(Scorer& s, const Program& p) const;
-  void refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals) const;
+  void refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals, bool full) const;
   void survive(std::vector<Individual>& pool);
   void rankPopulation();
   int tournament(Rng& rng) const;

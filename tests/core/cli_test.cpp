@@ -1,0 +1,137 @@
+// The `lgp` CLI end to end: a run writes its front, bad input exits non-zero with a message
+// naming the field (or file, row and column), and Ctrl-C still writes the front.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Result {
+  int code;
+  std::string out;
+};
+
+Result sh(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof(buf), p)) out.append(buf, n);
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+class Cli : public ::testing::Test {
+ protected:
+  fs::path dir = fs::temp_directory_path() / ("lgp_cli_" + std::to_string(getpid()));
+  void SetUp() override {
+    fs::create_directories(dir);
+    std::ofstream csv(dir / "t.csv");
+    csv << "x,y,f\n";
+    for (int i = 0; i < 16; ++i)
+      for (int j = 0; j < 16; ++j) {
+        const double x = (i + 0.5) / 16, y = (j + 0.5) / 16;
+        csv << x << "," << y << "," << x * y + 0.5 << "\n";
+      }
+  }
+  void TearDown() override { fs::remove_all(dir); }
+  std::string lgp() const { return std::string(LGP_CLI_PATH); }
+  fs::path config(const nlohmann::json& j, const std::string& name = "c.json") {
+    std::ofstream(dir / name) << j.dump();
+    return dir / name;
+  }
+  nlohmann::json base(int generations) {
+    return {{"data", {{"path", "t.csv"}, {"inputs", {"x", "y"}}, {"outputs", {"f"}}}},
+            {"search", {{"population", 60}, {"generations", generations}, {"seed", 2}}},
+            {"output",
+             {{"front_json", (dir / "front.json").string()},
+              {"front_csv", (dir / "front.csv").string()}}}};
+  }
+};
+
+TEST_F(Cli, RunWritesFrontAndFrontPrintsIt) {
+  const auto r = sh(lgp() + " run " + config(base(5)).string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  ASSERT_TRUE(fs::exists(dir / "front.json"));
+  ASSERT_TRUE(fs::exists(dir / "front.csv"));
+  std::ifstream in(dir / "front.json");
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["format"], "lgp-front/1");
+  ASSERT_GT(j["members"].size(), 0u);
+  const auto& m = j["members"][0];
+  for (const char* k : {"error", "cost", "discontinuity", "cost_by_target", "outputs", "program"})
+    EXPECT_TRUE(m.contains(k)) << k;
+  EXPECT_TRUE(m["outputs"][0].contains("expression"));
+  const auto f = sh(lgp() + " front " + (dir / "front.json").string());
+  EXPECT_EQ(f.code, 0);
+  EXPECT_NE(f.out.find("expression"), std::string::npos);
+  EXPECT_NE(f.out.find("members"), std::string::npos);
+}
+
+TEST_F(Cli, BadConfigNamesTheFieldAndExitsNonZero) {
+  auto j = base(5);
+  j["search"]["population"] = "lots";
+  auto r = sh(lgp() + " run " + config(j).string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("/search/population: must be an integer"), std::string::npos) << r.out;
+  j = base(5);
+  j["search"]["popsize"] = 5;
+  r = sh(lgp() + " run " + config(j).string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("/search/popsize: unknown key"), std::string::npos) << r.out;
+  std::ofstream(dir / "broken.json") << "{\"data\": ";
+  r = sh(lgp() + " run " + (dir / "broken.json").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("invalid JSON"), std::string::npos) << r.out;
+  r = sh(lgp() + " run " + (dir / "missing.json").string());
+  EXPECT_EQ(r.code, 2);
+  r = sh(lgp() + " frobnicate");
+  EXPECT_EQ(r.code, 2);
+  r = sh(lgp() + " front " + (dir / "t.csv").string());
+  EXPECT_EQ(r.code, 2);
+}
+
+TEST_F(Cli, BadCsvNamesFileRowAndColumn) {
+  std::ofstream(dir / "bad.csv") << "x,y,f\n1,2,3\n4,oops,6\n";
+  auto j = base(5);
+  j["data"]["path"] = "bad.csv";
+  const auto r = sh(lgp() + " run " + config(j).string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("bad.csv: line 3, column 2 ('y')"), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, InterruptStillWritesTheFront) {
+  auto j = base(0);
+  j["search"]["generations"] = 0;
+  j["search"]["wall_time_s"] = 60;
+  const std::string cfg = config(j).string();
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string bin = lgp();
+    execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(pid, SIGINT);
+  int st = 0;
+  waitpid(pid, &st, 0);
+  ASSERT_TRUE(WIFEXITED(st));
+  EXPECT_EQ(WEXITSTATUS(st), 130);
+  ASSERT_TRUE(fs::exists(dir / "front.json"));
+  std::ifstream in(dir / "front.json");
+  const auto front = nlohmann::json::parse(in);
+  EXPECT_EQ(front["progress"]["stop_reason"], "stopped");
+  EXPECT_GT(front["members"].size(), 0u);
+}
+
+}  // namespace

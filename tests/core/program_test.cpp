@@ -1,0 +1,178 @@
+// Effective-program extraction, pruning, infix, JSON, and validity under variation.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/variation.hpp"
+#include "lgp/eval/interpreter.hpp"
+
+namespace lgp {
+namespace {
+
+Operand X(int i) {
+  return {OperandKind::Var, static_cast<uint8_t>(i)};
+}
+Operand C(int i) {
+  return {OperandKind::Const, static_cast<uint8_t>(i)};
+}
+Operand R(int i) {
+  return {OperandKind::Reg, static_cast<uint8_t>(i)};
+}
+
+// r0 = x0 * c0      (effective)
+// r1 = x1 + x1      (intron)
+// r2 = exp2(r0)     (effective)
+// r3 = r2 - r0      (effective, output)
+Program sample() {
+  Program p;
+  p.code = {Instr{Op::Mul, {X(0), C(0)}}, Instr{Op::Add, {X(1), X(1)}}, Instr{Op::Exp2, {R(0)}},
+            Instr{Op::Sub, {R(2), R(0)}}};
+  p.constants = {2.5f, 9.0f};
+  p.outputs = {3};
+  return p;
+}
+
+TEST(Program, EffectiveIndicesSkipIntrons) {
+  const Program p = sample();
+  EXPECT_EQ(effectiveIndices(p), (std::vector<int>{0, 2, 3}));
+  EXPECT_EQ(effectiveConstants(p), (std::vector<int>{0}));
+}
+
+TEST(Program, PruneKeepsSemantics) {
+  const Program p = sample();
+  const Program q = pruneIntrons(p);
+  EXPECT_EQ(q.code.size(), 3u);
+  ProgramShape s;
+  s.num_inputs = 2;
+  s.num_constants = 2;
+  s.max_length = 8;
+  EXPECT_TRUE(validate(q, s)) << validate(q, s).message();
+  const double in[2] = {0.3, 0.7};
+  EXPECT_DOUBLE_EQ(evaluateReferenceRow(p, in)[0], evaluateReferenceRow(q, in)[0]);
+}
+
+TEST(Program, InfixBindsSharedSubexpressionsOnce) {
+  const auto s = toInfix(sample(), {"mu", "r"});
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s[0], "t0 = (mu * 2.5); (exp2(t0) - t0)");
+}
+
+TEST(Program, InfixParenthesisesNegativeConstants) {
+  Program p;
+  p.code = {Instr{Op::Neg, {C(0)}}};
+  p.constants = {-0.25f};
+  p.outputs = {0};
+  EXPECT_EQ(toInfix(p, {"x"})[0], "(-(-0.25))");
+}
+
+TEST(Program, JsonRoundTrip) {
+  const Program p = sample();
+  ProgramShape s;
+  s.num_inputs = 2;
+  s.num_constants = 2;
+  s.max_length = 8;
+  const auto j = toJson(p);
+  EXPECT_EQ(j["code"][0], (nlohmann::json{"mul", "x0", "c0"}));
+  auto q = programFromJson(j, s);
+  ASSERT_TRUE(q) << q.error();
+  EXPECT_EQ(*q, p);
+  auto bad = j;
+  bad["code"][2][1] = "r5";
+  EXPECT_FALSE(programFromJson(bad, s));
+  bad = j;
+  bad["code"][0][0] = "frobnicate";
+  auto e = programFromJson(bad, s);
+  ASSERT_FALSE(e);
+  EXPECT_NE(e.error().find("frobnicate"), std::string::npos);
+}
+
+TEST(Program, ValidateRejectsForwardReferences) {
+  Program p = sample();
+  p.code[0].args[0] = R(0);
+  ProgramShape s;
+  s.num_inputs = 2;
+  s.num_constants = 2;
+  EXPECT_FALSE(validate(p, s));
+}
+
+class Variation : public ::testing::TestWithParam<OutputMode> {};
+
+TEST_P(Variation, OperatorsAlwaysYieldValidPrograms) {
+  ProgramShape shape;
+  shape.num_inputs = 3;
+  shape.num_outputs = 2;
+  shape.max_length = 24;
+  shape.num_constants = 5;
+  shape.output_mode = GetParam();
+  InitConfig init{2, 24, -2, 2};
+  Rng rng(42);
+  std::vector<Program> pop;
+  for (int i = 0; i < 50; ++i) {
+    pop.push_back(randomProgram(shape, init, rng));
+    ASSERT_TRUE(validate(pop.back(), shape)) << validate(pop.back(), shape).message();
+  }
+  for (int it = 0; it < 20000; ++it) {
+    const int a = rng.below(50), b = rng.below(50);
+    Program c;
+    switch (it % 3) {
+      case 0:
+        c = crossover(pop[a], pop[b], shape, rng);
+        break;
+      case 1:
+        c = pop[a];
+        microMutate(c, shape, rng, 0.3, 0.9);
+        break;
+      case 2:
+        c = pop[a];
+        macroMutate(c, shape, rng);
+        break;
+    }
+    const Status st = validate(c, shape);
+    ASSERT_TRUE(st) << "iteration " << it << ": " << st.message();
+    pop[rng.below(50)] = std::move(c);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, Variation,
+                         ::testing::Values(OutputMode::Last, OutputMode::Designated));
+
+TEST(Variation, CrossoverCopiesSegmentsVerbatim) {
+  // With one-opcode parents of equal length, the child's opcodes all come from a or b.
+  ProgramShape shape;
+  shape.num_inputs = 2;
+  shape.max_length = 32;
+  InitConfig init{10, 10, -1, 1};
+  Rng rng(3);
+  const Program a = randomProgram(shape, init, rng);
+  const Program b = randomProgram(shape, init, rng);
+  int from_b = 0;
+  for (int t = 0; t < 100; ++t) {
+    const Program c = crossover(a, b, shape, rng);
+    for (const auto& ins : c.code) {
+      bool op_in_a = false, op_in_b = false;
+      for (const auto& x : a.code) op_in_a |= x.op == ins.op;
+      for (const auto& x : b.code) op_in_b |= x.op == ins.op;
+      EXPECT_TRUE(op_in_a || op_in_b);
+      from_b += op_in_b && !op_in_a;
+    }
+  }
+  EXPECT_GT(from_b, 0);
+}
+
+TEST(Variation, RespectsTheAllowedOperatorSet) {
+  ProgramShape shape;
+  shape.num_inputs = 2;
+  shape.ops = OpSet();
+  shape.ops.insert(Op::Add);
+  shape.ops.insert(Op::Exp2);
+  InitConfig init{2, 20, -1, 1};
+  Rng rng(8);
+  Program p = randomProgram(shape, init, rng);
+  for (int i = 0; i < 2000; ++i) {
+    microMutate(p, shape, rng, 0.2, 0.5);
+    macroMutate(p, shape, rng);
+  }
+  for (const auto& ins : p.code) EXPECT_TRUE(ins.op == Op::Add || ins.op == Op::Exp2);
+}
+
+}  // namespace
+}  // namespace lgp

@@ -1,0 +1,144 @@
+// Determinism, checkpoint/resume, budgets and the front's invariants.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "lgp/io/result.hpp"
+#include "lgp/search/search.hpp"
+
+namespace lgp {
+namespace {
+
+Table grid(int n) {
+  Table t;
+  t.input_names = {"mu", "r"};
+  t.output_names = {"y"};
+  t.inputs.resize(2);
+  t.outputs.resize(1);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double mu = (i + 0.5) / n, r = (j + 0.5) / n;
+      t.inputs[0].push_back(mu);
+      t.inputs[1].push_back(r);
+      t.outputs[0].push_back(mu * r / (mu + 0.5) + 0.1 * std::exp2(-3 * mu));
+    }
+  return t;
+}
+
+RunConfig smallConfig(int threads, uint64_t seed = 3) {
+  RunConfig c;
+  c.data.path = "in-memory";
+  c.search.population = 80;
+  c.search.generations = 12;
+  c.search.seed = seed;
+  c.search.threads = threads;
+  c.search.refine.offspring_share = 0.1;
+  c.search.refine.archive_period = 4;
+  c.program.max_length = 16;
+  return c;
+}
+
+nlohmann::json members(const Search& s) {
+  return frontToJson(s, s.front())["members"];
+}
+
+TEST(Search, SameSeedSameThreadsSameFront) {
+  Search a(smallConfig(2), grid(12));
+  a.run();
+  Search b(smallConfig(2), grid(12));
+  b.run();
+  EXPECT_EQ(members(a), members(b));
+  EXPECT_EQ(a.progress().evaluations, b.progress().evaluations);
+}
+
+TEST(Search, FrontDoesNotDependOnThreadCount) {
+  Search a(smallConfig(1), grid(12));
+  a.run();
+  Search b(smallConfig(2), grid(12));
+  b.run();
+  EXPECT_EQ(members(a), members(b));
+}
+
+TEST(Search, DifferentSeedsExploreDifferently) {
+  Search a(smallConfig(1, 3), grid(12));
+  a.run();
+  Search b(smallConfig(1, 4), grid(12));
+  b.run();
+  EXPECT_NE(members(a), members(b));
+}
+
+TEST(Search, ResumedRunEqualsUninterruptedRun) {
+  Search full(smallConfig(2), grid(12));
+  full.run();
+  Search first(smallConfig(2), grid(12));
+  for (int g = 0; g < 6; ++g) first.step();
+  const auto cp = nlohmann::json::parse(first.checkpoint().dump());  // through text, as on disk
+  Search resumed(smallConfig(2), grid(12));
+  ASSERT_TRUE(resumed.restore(cp));
+  EXPECT_EQ(resumed.progress().generation, first.progress().generation);
+  resumed.run();
+  EXPECT_EQ(members(resumed), members(full));
+  EXPECT_EQ(resumed.progress().evaluations, full.progress().evaluations);
+}
+
+TEST(Search, CheckpointFromAnotherConfigIsRejected) {
+  Search a(smallConfig(1), grid(12));
+  a.step();
+  RunConfig other = smallConfig(1);
+  other.program.max_length = 20;
+  Search b(other, grid(12));
+  const Status st = b.restore(a.checkpoint());
+  EXPECT_FALSE(st);
+  EXPECT_NE(st.message().find("different config"), std::string::npos);
+  Search c(smallConfig(1), grid(11));
+  EXPECT_FALSE(c.restore(a.checkpoint()));
+}
+
+TEST(Search, EvaluationBudgetAndStopRequest) {
+  RunConfig c = smallConfig(1);
+  c.search.generations = 0;
+  c.search.max_evaluations = 1000;
+  Search s(c, grid(8));
+  s.run();
+  EXPECT_EQ(s.progress().stop_reason, "evaluations");
+  EXPECT_GE(s.progress().evaluations, 1000u);
+  EXPECT_LT(s.progress().evaluations, 1000u + 2 * 80 * 40);
+
+  RunConfig w = smallConfig(1);
+  w.search.generations = 0;
+  w.search.wall_time_s = 0.2;
+  Search t(w, grid(8));
+  t.run();
+  EXPECT_EQ(t.progress().stop_reason, "wall_time");
+
+  Search u(smallConfig(1), grid(8));
+  u.step();
+  u.requestStop();
+  u.run();
+  EXPECT_EQ(u.progress().stop_reason, "stopped");
+  EXPECT_LE(u.progress().generation, 1);
+}
+
+TEST(Search, FrontIsNonDominatedFiniteAndConsistent) {
+  Search s(smallConfig(2), grid(12));
+  s.run();
+  const auto front = s.front();
+  ASSERT_FALSE(front.empty());
+  for (size_t i = 0; i < front.size(); ++i) {
+    EXPECT_TRUE(front[i].obj.finite());
+    for (size_t j = 0; j < front.size(); ++j)
+      if (i != j) EXPECT_FALSE(dominates(front[j].obj, front[i].obj));
+    // The reported float32 RMSE is the searched error; the double path agrees closely.
+    EXPECT_NEAR(front[i].metrics[0].rmse, front[i].obj.error, 1e-12 + 1e-9 * front[i].obj.error);
+    EXPECT_NEAR(front[i].metrics_ref[0].rmse, front[i].obj.error, 1e-4 * (1 + front[i].obj.error));
+    EXPECT_EQ(front[i].cost_by_target[0], front[i].obj.cost);
+    if (i > 0) EXPECT_LE(front[i - 1].obj.cost, front[i].obj.cost);
+  }
+  // The lowest-error member is far better than the best constant.
+  double best = INFINITY;
+  for (const auto& e : front) best = std::min(best, e.obj.error);
+  EXPECT_LT(best, 0.5 * front.front().obj.error + 1e-12);
+}
+
+}  // namespace
+}  // namespace lgp
