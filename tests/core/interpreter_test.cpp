@@ -190,6 +190,38 @@ TEST(Interpreter, BlockPathEqualsScalarPathBitForBit) {
   }
 }
 
+TEST(Interpreter, PairFusionIsBitIdenticalAndFusesArithmeticChains) {
+  ProgramShape shape;
+  shape.num_inputs = 2;
+  shape.max_length = 24;
+  shape.ops = OpSet();
+  for (Op op : {Op::Add, Op::Sub, Op::Mul, Op::Mad, Op::Min, Op::Max, Op::Exp2, Op::Select})
+    shape.ops.insert(op);
+  InitConfig init{12, 24, -2, 2};
+  Table t = randomTable(2, 300, -2, 2, 4);
+  Dataset ds(t, 64);
+  Interpreter interp(64);
+  size_t fused_steps = 0, plain_steps = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Rng rng(500 + trial);
+    const Program p = randomProgram(shape, init, rng);
+    BoundProgram fused, plain;
+    plain.fuse = false;
+    fused.bind(p, 2);
+    plain.bind(p, 2);
+    fused_steps += fused.steps.size();
+    plain_steps += plain.steps.size();
+    for (size_t b = 0; b < ds.numBlocks(); ++b) {
+      const std::vector<float> want(interp.evalBlock(plain, ds, b)[0],
+                                    interp.evalBlock(plain, ds, b)[0] + 64);
+      const float* got = interp.evalBlock(fused, ds, b)[0];
+      for (int i = 0; i < 64; ++i)
+        ASSERT_TRUE(got[i] == want[i] || sameNonFinite(got[i], want[i])) << "trial " << trial;
+    }
+  }
+  EXPECT_LT(fused_steps, plain_steps * 9 / 10);  // chains of arithmetic opcodes were fused
+}
+
 TEST(Interpreter, RandomProgramsAgreeWithDoubleReference) {
   // Well-conditioned domain: inputs in [0.5, 2]. Rounding differences can still be amplified by
   // cancellation in a random DAG, so the check is on the median row and on the share of rows

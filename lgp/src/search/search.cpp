@@ -94,13 +94,16 @@ void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& eval
   Program work = ind.program;
   std::vector<double> x0;
   for (int c : slots) x0.push_back(work.constants[c]);
+  BoundProgram bp;  // bound once; each evaluation only refreshes the constants
+  bp.bind(work, ds_.numInputs());
   auto f = [&](const std::vector<double>& x) {
     for (size_t k = 0; k < slots.size(); ++k) {
       const float v = static_cast<float>(x[k]);
       if (!std::isfinite(v)) return kInf;
       work.constants[slots[k]] = v;
     }
-    return s.error(work);
+    bp.updateConstants(work);
+    return s.error(bp);
   };
   Rng rng(seed);
   NelderMeadConfig nm = cfg_.search.refine.nm;

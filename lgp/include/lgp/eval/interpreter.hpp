@@ -54,13 +54,24 @@ class Dataset {
 
 using Kernel = void (*)(float* out, const float* a, const float* b, const float* c, const float* d,
                         int n);
+// Two fused opcodes: t = O1(a, b, c) stays in a register, out = O2 over (p0, p1, p2) with t
+// substituted for the operands selected at bind time.
+using PairKernel = void (*)(float* out, const float* a, const float* b, const float* c,
+                            const float* p0, const float* p1, const float* p2, int n);
 
 // A decoded program: effective opcodes only, operands as slot numbers.
 // Slots: [0, num_inputs) inputs, then constants, then registers.
+//
+// Pair fusion: every kernel stores its result column, so cheap operators are bound by stores
+// (one vector store per 8 rows). When an arithmetic opcode (add/sub/mul/mad/min/max) is read
+// only by the next one, also arithmetic, both run in one PairKernel and the intermediate never
+// leaves a register. Results are bit-identical (same operations, same rounding).
 struct BoundProgram {
   struct Step {
-    Kernel kernel;
+    Kernel kernel;                       // used when pair is null
+    PairKernel pair = nullptr;           // fused pair: src = first opcode's operands
     std::array<int32_t, kMaxArity> src;  // slot per operand (unused ones point at slot 0)
+    std::array<int32_t, 3> src2{};       // fused pair: the second opcode's other operands
     int32_t dst;                         // register slot
   };
   std::vector<Step> steps;
@@ -70,7 +81,13 @@ struct BoundProgram {
   int num_slots = 0;
   uint64_t bind_id = 0;  // unique per bind(): lets an Interpreter skip re-broadcasting constants
 
+  std::vector<int32_t> const_source;  // program constant slot of each bound constant
+  bool fuse = true;                   // allow pair fusion (off: one kernel per opcode)
+
   void bind(const Program& p, int num_inputs);
+  // Refreshes constant values after p's constants changed (same structure); cheap, used by
+  // Nelder-Mead so that it binds once per refinement.
+  void updateConstants(const Program& p);
 };
 
 Kernel kernelFor(Op op);
