@@ -1,0 +1,91 @@
+// Microfacet and diffuse BRDF terms shared by the generators (TABLES.md "Notation").
+// Frame: n = +z, v = (sqrt(1 - mu^2), 0, mu). All functions are branch-light and finite for
+// alpha > 0 and every mu in [0, 1]; alpha = 0 (a delta lobe) is handled by the callers with
+// its analytic limit.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+namespace lgp::datasets {
+
+enum class Ndf { Ggx };
+enum class Visibility { SmithCorrelated, SchlickSmith };
+enum class FresnelModel { None, Schlick };
+enum class RoughnessMap { Perceptual, Linear };  // alpha = r^2 | alpha = r
+enum class Diffuse { Disney, Lambert };
+
+const char* toString(Ndf v);
+const char* toString(Visibility v);
+const char* toString(FresnelModel v);
+const char* toString(RoughnessMap v);
+const char* toString(Diffuse v);
+bool fromString(const std::string& s, Ndf& v);
+bool fromString(const std::string& s, Visibility& v);
+bool fromString(const std::string& s, FresnelModel& v);
+bool fromString(const std::string& s, RoughnessMap& v);
+bool fromString(const std::string& s, Diffuse& v);
+
+struct Material {
+  Ndf ndf = Ndf::Ggx;                                   // microfacet distribution
+  Visibility visibility = Visibility::SmithCorrelated;  // G2 form
+  FresnelModel fresnel = FresnelModel::Schlick;         // F = F0 + (F90 - F0)(1 - v.h)^5
+  double f90 = 1.0;                                     // Schlick grazing reflectance
+  RoughnessMap roughness = RoughnessMap::Perceptual;    // r -> alpha
+  Diffuse diffuse = Diffuse::Disney;                    // for the zh generator
+
+  double alpha(double r) const { return roughness == RoughnessMap::Perceptual ? r * r : r; }
+};
+
+// GGX NDF: D(h) = alpha^2 / (pi ((n.h)^2 (alpha^2 - 1) + 1)^2).
+inline double ggxD(double nh, double alpha) {
+  const double a2 = alpha * alpha;
+  const double d = nh * nh * (a2 - 1.0) + 1.0;
+  return a2 / (std::numbers::pi * d * d);
+}
+
+// G2(l, v) / (n.v), finite at n.v = 0 for alpha > 0.
+//  Smith height-correlated: G2 = 1 / (1 + Lambda(v) + Lambda(l)),
+//    Lambda(x) = (sqrt(alpha^2 + (1 - alpha^2) x^2) / x - 1) / 2, which rearranges to
+//    G2 / nv = 2 nl / (nv S(nl) + nl S(nv)),  S(x) = sqrt(alpha^2 + (1 - alpha^2) x^2).
+//  Schlick-Smith separable: G2 = G1(l) G1(v), G1(x) = x / (x (1 - k) + k), k = alpha / 2.
+inline double g2OverNv(double nl, double nv, double alpha, Visibility vis) {
+  if (nl <= 0.0) return 0.0;
+  const double a2 = alpha * alpha;
+  if (vis == Visibility::SmithCorrelated) {
+    const double sl = std::sqrt(a2 + (1.0 - a2) * nl * nl);
+    const double sv = std::sqrt(a2 + (1.0 - a2) * nv * nv);
+    return 2.0 * nl / (nv * sl + nl * sv);
+  }
+  const double k = 0.5 * alpha;
+  const double g1l = nl / (nl * (1.0 - k) + k);
+  return g1l / (nv * (1.0 - k) + k);
+}
+
+// Schlick's Fresnel weight (1 - v.h)^5 (F = F0 (1 - Fc) + F90 Fc).
+inline double schlickWeight(double vh) {
+  const double m = std::clamp(1.0 - vh, 0.0, 1.0);
+  const double m2 = m * m;
+  return m2 * m2 * m;
+}
+
+// f_spec(l, v) with F = 1: D G2 / (4 nl nv). Zero below the horizon.
+inline double specularBrdf(double nl, double nv, double nh, double alpha, Visibility vis) {
+  if (nl <= 0.0 || nv <= 0.0) return 0.0;
+  return ggxD(nh, alpha) * g2OverNv(nl, nv, alpha, vis) / (4.0 * nl);
+}
+
+// Disney diffuse (Burley 2012) with baseColor = 1, or Lambert 1/pi.
+//  f_d = (1/pi) (1 + (F_D90 - 1)(1 - nl)^5) (1 + (F_D90 - 1)(1 - nv)^5),
+//  F_D90 = 0.5 + 2 r (l.h)^2, (l.h)^2 = (1 + l.v) / 2.
+inline double diffuseBrdf(double nl, double nv, double lv, double r, Diffuse model) {
+  if (model == Diffuse::Lambert) return std::numbers::inv_pi;
+  const double lh2 = 0.5 * (1.0 + lv);
+  const double fd90 = 0.5 + 2.0 * r * lh2;
+  return std::numbers::inv_pi * (1.0 + (fd90 - 1.0) * schlickWeight(nl)) *
+         (1.0 + (fd90 - 1.0) * schlickWeight(nv));
+}
+
+}  // namespace lgp::datasets

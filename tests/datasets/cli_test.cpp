@@ -1,0 +1,127 @@
+// `lgp data`: exit codes, messages, the lgp-table/1 output read back by the core reader (a
+// generated table loads anywhere a file table does), CSV + metadata, plots and the cache.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <sys/wait.h>
+
+#include "lgp/config/config.hpp"
+#include "lgp/core/table.hpp"
+#include "table_source.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+struct Result {
+  int code;
+  std::string err;
+};
+
+Result lgpData(const std::string& args, const fs::path& dir) {
+  const fs::path err = dir / "stderr.txt";
+  const std::string cmd = "cd '" + dir.string() + "' && LGP_CACHE_DIR='" +
+                          (dir / "cache").string() + "' '" + LGP_CLI_PATH + "' data " + args +
+                          " 2> '" + err.string() + "'";
+  const int rc = std::system(cmd.c_str());
+  std::ifstream in(err);
+  std::stringstream s;
+  s << in.rdbuf();
+  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, s.str()};
+}
+
+fs::path freshDir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("lgp_datasets_cli_" + name);
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void write(const fs::path& p, const std::string& text) {
+  std::ofstream(p) << text;
+}
+
+const char* kScene = R"({"outputs": ["A", "B"],
+  "grid": {"mu": {"count": 6, "range": [0.0, 1.0]}, "r": {"count": 5}},
+  "accuracy": {"abs_error": 1e-5}})";
+}  // namespace
+
+TEST(DataCli, BadScenesFailWithPathAndReason) {
+  const fs::path d = freshDir("bad");
+  write(d / "bad.json", R"({"outputs": ["A"], "grid": {"mu": {"count": 0}, "r": {"count": 2}}})");
+  Result r = lgpData("bad.json -o t.json", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.json: /grid/mu/count: must be an integer"), std::string::npos) << r.err;
+  write(d / "trunc.json", R"({"outputs": [)");
+  r = lgpData("trunc.json", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("trunc.json: invalid JSON"), std::string::npos) << r.err;
+  r = lgpData("missing.json", d);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("missing.json: cannot open"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "t.json"));
+  fs::remove_all(d);
+}
+
+TEST(DataCli, WritesLoadableTablesPlotsAndUsesTheCache) {
+  const fs::path d = freshDir("good");
+  write(d / "scene.json", kScene);
+  Result r = lgpData("scene.json -o t.json --plot", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("generated"), std::string::npos) << r.err;
+  auto raw = lgp::readTableFile(d / "t.json");
+  ASSERT_TRUE(raw) << raw.error();
+  auto t = lgp::selectColumns(*raw, {}, {}, "", "t.json");
+  ASSERT_TRUE(t) << t.error();
+  EXPECT_EQ(t->input_names, (std::vector<std::string>{"mu", "r"}));
+  EXPECT_EQ(t->output_names, (std::vector<std::string>{"A", "B"}));
+  EXPECT_EQ(t->rows(), 30u);
+  EXPECT_TRUE(t->validate()) << t->validate().message();
+  EXPECT_EQ(raw->meta["generator_version"], "lgp-datasets/1.0.0");
+  EXPECT_TRUE(fs::exists(d / "t_A_heatmap.svg"));
+  EXPECT_TRUE(fs::exists(d / "t_B_slices.svg"));
+
+  r = lgpData("scene.json -o t2.json", d);  // same scene: from the cache
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("from cache"), std::string::npos) << r.err;
+
+  r = lgpData("scene.json -o t.csv --csv", d);
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto csv = lgp::readTableFile(d / "t.csv");
+  ASSERT_TRUE(csv) << csv.error();
+  auto tc = lgp::selectColumns(*csv, {"mu", "r"}, {"A", "B"}, "", "t.csv");
+  ASSERT_TRUE(tc) << tc.error();
+  EXPECT_EQ(tc->outputs, t->outputs);  // CSV keeps full precision
+  EXPECT_TRUE(fs::exists(d / "t.csv.meta.json"));
+  fs::remove_all(d);
+}
+
+TEST(DataCli, RunConfigMayNameAScene) {
+  const fs::path d = freshDir("run");
+  write(d / "scene.json", kScene);
+  nlohmann::json j = {
+      {"data", {{"scene", "scene.json"}, {"outputs", {"B"}}, {"cache_dir", "cache"}}}};
+  auto cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  auto t = lgp::cli::loadRunTable(*cfg);
+  ASSERT_TRUE(t) << t.error();
+  EXPECT_EQ(t->input_names, (std::vector<std::string>{"mu", "r"}));
+  EXPECT_EQ(t->output_names, (std::vector<std::string>{"B"}));
+  EXPECT_EQ(t->rows(), 30u);
+  EXPECT_FALSE(fs::is_empty(d / "cache"));
+  // a bad scene is an error naming /data/scene and the scene's own JSON path
+  write(d / "bad.json", R"({"outputs": ["N"], "grid": {}})");
+  j["data"]["scene"] = "bad.json";
+  cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  t = lgp::cli::loadRunTable(*cfg);
+  ASSERT_FALSE(t);
+  EXPECT_NE(t.error().find("/data/scene: "), std::string::npos) << t.error();
+  EXPECT_NE(t.error().find("bad.json: /light/type"), std::string::npos) << t.error();
+  fs::remove_all(d);
+}

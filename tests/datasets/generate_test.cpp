@@ -1,0 +1,230 @@
+#include "lgp/datasets/generate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+using namespace lgp::datasets;
+using lgp::RawTable;
+using lgp::Table;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+Scene scene(const std::string& text) {
+  auto s = parseScene(json::parse(text), "test");
+  EXPECT_TRUE(s) << s.error();
+  return *s;
+}
+// mu in {1, 0.5, 0.2}, r = sqrt(alpha) for alpha in {1, 0.25, 0.5}
+const char* kCheck = R"({
+  "material": {"fresnel": {"model": "schlick", "f90": 1}},
+  "outputs": ["A", "B", "E"],
+  "grid": {"mu": {"values": [1, 0.5, 0.2]}, "r": {"values": [1, 0.5, 0.7071067811865476]}},
+  "accuracy": {"abs_error": 1e-7}
+})";
+double at(const GeneratedTable& g, const std::string& out, double x0, double x1) {
+  const Table& t = g.table;
+  for (size_t k = 0; k < t.output_names.size(); ++k)
+    if (t.output_names[k] == out)
+      for (size_t row = 0; row < t.rows(); ++row)
+        if (std::abs(t.inputs[0][row] - x0) < 1e-12 && std::abs(t.inputs[1][row] - x1) < 1e-12)
+          return t.outputs[k][row];
+  ADD_FAILURE() << "no " << out << " at " << x0 << ", " << x1;
+  return NAN;
+}
+fs::path tempDir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() /
+               ("lgp_datasets_test_" + name + "_" +
+                std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+}  // namespace
+
+TEST(Generate, CheckValuesAndMetadata) {
+  auto g = generate(scene(kCheck));
+  ASSERT_TRUE(g) << g.error();
+  EXPECT_NEAR(at(*g, "E", 1.0, 1.0), 1.0 - std::log(2.0), 1e-7);  // TABLES: 0.30686
+  EXPECT_NEAR(at(*g, "E", 0.5, 1.0), 0.45069, 5e-6);
+  EXPECT_NEAR(at(*g, "E", 0.5, 0.5), 0.85726, 5e-6);
+  EXPECT_NEAR(at(*g, "E", 0.2, 0.7071067811865476), 0.78993, 5e-6);
+  EXPECT_LE(g->max_error, 1e-7);
+  EXPECT_TRUE(g->converged);
+  const json& m = g->table.meta;
+  for (const char* k : {"definition", "scene", "grid", "integrator", "sample_counts",
+                        "max_estimated_error", "generator_version"})
+    EXPECT_TRUE(m.contains(k)) << k;
+  EXPECT_EQ(m["generator_version"], kGeneratorVersion);
+  EXPECT_EQ(m["integrator"]["method"], "adaptive");
+  EXPECT_GT(m["sample_counts"]["total"].get<uint64_t>(), 0u);
+  // lgp-table/1 JSON
+  const json j = toTableJson(*g);
+  EXPECT_EQ(j["format"], "lgp-table/1");
+  EXPECT_EQ(j["inputs"], json({"mu", "r"}));
+  EXPECT_EQ(j["outputs"], json({"A", "B", "E"}));
+  EXPECT_EQ(j["columns"]["A"].size(), 9u);
+  EXPECT_EQ(j["errors"]["B"].size(), 9u);
+  auto back = fromTableJson(j, "mem");
+  ASSERT_TRUE(back) << back.error();
+  EXPECT_EQ(back->table.outputs, g->table.outputs);
+  EXPECT_EQ(back->errors, g->errors);
+  RawTable raw = toRawTable(*g);
+  EXPECT_EQ(raw.names, (std::vector<std::string>{"mu", "r", "A", "B", "E"}));
+  EXPECT_EQ(raw.default_outputs, (std::vector<std::string>{"A", "B", "E"}));
+}
+
+TEST(Generate, SimulatesOnlyWhatTheSceneAsksFor) {
+  const std::string grid = R"("grid": {"mu": {"count": 3}, "r": {"count": 3}})";
+  {  // E with Fresnel off: no Fresnel split, no ZH, no normalization
+    auto g =
+        generate(scene(R"({"material": {"fresnel": "none"}, "outputs": ["E"], )" + grid + "}"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_GT(g->counters.specular, 0u);
+    EXPECT_EQ(g->counters.fresnel, 0u);
+    EXPECT_EQ(g->counters.diffuse, 0u);
+    EXPECT_EQ(g->counters.rep_point, 0u);
+  }
+  {  // the DFG split: Fresnel, but no ZH or normalization
+    auto g = generate(scene(R"({"outputs": ["A", "B"], )" + grid + "}"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_EQ(g->counters.fresnel, g->counters.specular);
+    EXPECT_EQ(g->counters.diffuse, 0u);
+    EXPECT_EQ(g->counters.rep_point, 0u);
+  }
+  {  // ZH only: no specular work at all
+    auto g = generate(scene(R"({"outputs": ["ZH0", "ZH1_over_ZH0"], )" + grid + "}"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_EQ(g->counters.specular, 0u);
+    EXPECT_EQ(g->counters.fresnel, 0u);
+    EXPECT_GT(g->counters.diffuse, 0u);
+    EXPECT_EQ(g->counters.rep_point, 0u);
+  }
+  {  // normalization: sphere light only
+    auto g = generate(scene(R"({"light": {"type": "sphere", "range": [0, 0.5]},
+                                "outputs": ["N"],
+                                "grid": {"r": {"count": 2, "range": [0.5, 1]},
+                                         "theta_s": {"count": 3}}})"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_GT(g->counters.rep_point, 0u);
+    EXPECT_EQ(g->counters.fresnel, 0u);
+    EXPECT_EQ(g->counters.diffuse, 0u);
+    EXPECT_EQ(at(*g, "N", 0.5, 0.0), 1.0);
+  }
+}
+
+TEST(Generate, HardCaseGridIsFiniteAndBounded) {
+  auto g = generate(scene(R"({
+    "outputs": ["A", "B", "E", "one_minus_E", "E_avg", "ZH0", "ZH2_over_ZH0", "beta"],
+    "grid": {"mu": {"values": [0, 1e-7, 0.015625, 0.5, 1]}, "r": {"values": [0, 1e-4, 0.5, 1]}},
+    "accuracy": {"abs_error": 1e-5}
+  })"));
+  ASSERT_TRUE(g) << g.error();
+  for (size_t k = 0; k < g->table.outputs.size(); ++k)
+    for (size_t row = 0; row < g->table.rows(); ++row) {
+      ASSERT_TRUE(std::isfinite(g->table.outputs[k][row]));
+      ASSERT_TRUE(std::isfinite(g->errors[k][row]));
+    }
+  for (double mu : {0.0, 0.015625, 0.5, 1.0}) {
+    EXPECT_EQ(at(*g, "E", mu, 0.0), 1.0);  // mirror limit
+    for (double r : {0.0, 0.5, 1.0}) {
+      EXPECT_GE(at(*g, "A", mu, r), 0.0);
+      EXPECT_LE(at(*g, "A", mu, r), 1.0);
+      EXPECT_GE(at(*g, "B", mu, r), 0.0);
+      EXPECT_LE(at(*g, "B", mu, r), 1.0);
+    }
+  }
+  EXPECT_NEAR(at(*g, "E", 1.0, 1.0), 1.0 - std::log(2.0), 1e-5);
+  EXPECT_NEAR(at(*g, "one_minus_E", 1.0, 1.0), std::log(2.0), 1e-5);
+  EXPECT_EQ(at(*g, "E_avg", 0.5, 0.0), 1.0);
+}
+
+TEST(Generate, CacheHitsAndRejectsCorruptFiles) {
+  const fs::path dir = tempDir("cache");
+  const Scene s = scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 4}, "r": {"count": 4}}})");
+  auto first = generateCached(s, dir);
+  ASSERT_TRUE(first) << first.error();
+  EXPECT_FALSE(first->hit);
+  ASSERT_TRUE(fs::exists(first->file));
+  auto second = generateCached(s, dir);
+  ASSERT_TRUE(second) << second.error();
+  EXPECT_TRUE(second->hit);
+  EXPECT_EQ(second->table.table.outputs, first->table.table.outputs);
+  EXPECT_EQ(second->table.errors, first->table.errors);
+  // a different scene (or generator version) has a different key
+  const Scene s2 = scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 5}, "r": {"count": 4}}})");
+  EXPECT_NE(cacheKey(s2), cacheKey(s));
+
+  // flip one digit in the payload: detected by checksum, regenerated, never used
+  std::string bytes;
+  {
+    std::ifstream in(first->file, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  std::string bad = bytes;
+  const size_t pos = bad.find("0.", bad.find("\"E\""));
+  ASSERT_NE(pos, std::string::npos);
+  bad[pos + 3] = bad[pos + 3] == '7' ? '3' : '7';
+  std::ofstream(first->file, std::ios::binary) << bad;
+  auto third = generateCached(s, dir);
+  ASSERT_TRUE(third) << third.error();
+  EXPECT_FALSE(third->hit);
+  EXPECT_NE(third->note.find("checksum mismatch"), std::string::npos) << third->note;
+  EXPECT_EQ(third->table.table.outputs, first->table.table.outputs);
+  EXPECT_TRUE(generateCached(s, dir)->hit);  // rewritten
+
+  // truncated file
+  std::ofstream(first->file, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  auto fourth = generateCached(s, dir);
+  ASSERT_TRUE(fourth) << fourth.error();
+  EXPECT_FALSE(fourth->hit);
+  EXPECT_NE(fourth->note.find("truncated"), std::string::npos) << fourth->note;
+  // garbage header
+  std::ofstream(first->file, std::ios::binary) << "garbage";
+  auto fifth = generateCached(s, dir);
+  ASSERT_TRUE(fifth) << fifth.error();
+  EXPECT_FALSE(fifth->hit);
+  fs::remove_all(dir);
+}
+
+TEST(Generate, PlotsAndCsv) {
+  const fs::path dir = tempDir("plots");
+  auto g = generate(scene(R"({"outputs": ["A", "B"], "grid": {"mu": {"count": 5},
+                              "r": {"count": 4}}, "accuracy": {"abs_error": 1e-4}})"));
+  ASSERT_TRUE(g) << g.error();
+  auto files = writePlots(*g, dir, "dfg");
+  ASSERT_TRUE(files) << files.error();
+  EXPECT_EQ(files->size(), 4u);  // heatmap + slices per output
+  for (const auto& f : *files) {
+    std::ifstream in(f);
+    std::string head;
+    std::getline(in, head);
+    EXPECT_EQ(head.rfind("<svg", 0), 0u) << f;
+  }
+  ASSERT_TRUE(writeTableCsv(*g, dir / "t.csv"));
+  std::ifstream in(dir / "t.csv");
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "mu,r,A,B");
+  int lines = 0;
+  for (std::string l; std::getline(in, l);) ++lines;
+  EXPECT_EQ(lines, 20);
+  fs::remove_all(dir);
+}
+
+TEST(Generate, IntegratorsAgreeOnATable) {
+  const std::string base = R"("outputs": ["A", "B"],
+      "grid": {"mu": {"count": 4, "range": [0.1, 1]}, "r": {"count": 3, "range": [0.3, 1]}})";
+  auto a = generate(scene("{" + base + R"(, "accuracy": {"integrator": "adaptive"}})"));
+  auto q = generate(scene("{" + base + R"(, "accuracy": {"integrator": "qmc",
+                                            "abs_error": 0.01, "qmc_points": 8192}})"));
+  ASSERT_TRUE(a && q);
+  for (size_t k = 0; k < 2; ++k)
+    for (size_t row = 0; row < a->table.rows(); ++row)
+      EXPECT_NEAR(a->table.outputs[k][row], q->table.outputs[k][row],
+                  q->errors[k][row] + a->errors[k][row] + 1e-9);
+  EXPECT_EQ(q->table.meta["integrator"]["method"], "qmc");
+}

@@ -1,0 +1,145 @@
+#include "lgp/datasets/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace lgp::datasets;
+using nlohmann::json;
+
+namespace {
+json dfgScene() {
+  return json::parse(R"({
+    "material": {"visibility": "smith-correlated", "fresnel": {"model": "schlick", "f90": 1},
+                 "roughness": "perceptual"},
+    "light": {"type": "environment"},
+    "outputs": ["A", "B"],
+    "grid": {"mu": {"count": 64, "range": [0.015625, 1], "spacing": "edge"},
+             "r": {"count": 64, "range": [0, 1], "spacing": "edge"}},
+    "accuracy": {"abs_error": 1e-6}
+  })");
+}
+std::string errorOf(const json& j) {
+  auto s = parseScene(j, "s.json");
+  return s ? std::string() : s.error();
+}
+}  // namespace
+
+TEST(Scene, ParsesTheDfgExample) {
+  auto s = parseScene(dfgScene());
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->inputNames(), (std::vector<std::string>{"mu", "r"}));
+  EXPECT_EQ(s->rows(), 64u * 64u);
+  EXPECT_DOUBLE_EQ(s->grid[0].values.front(), 1.0 / 64);
+  EXPECT_DOUBLE_EQ(s->grid[0].values.back(), 1.0);
+  EXPECT_DOUBLE_EQ(s->grid[1].values.front(), 0.0);
+  EXPECT_DOUBLE_EQ(s->grid[1].values.back(), 1.0);
+  EXPECT_TRUE(s->needs(Effect::Fresnel));
+  EXPECT_FALSE(s->needs(Effect::Diffuse));
+  EXPECT_FALSE(s->needs(Effect::Normalization));
+  // canonical JSON round-trips
+  auto again = parseScene(toJson(*s));
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(toJson(*again), toJson(*s));
+}
+
+TEST(Scene, GridSpacings) {
+  json j = dfgScene();
+  j["grid"]["mu"] = {{"count", 4}, {"range", {0, 1}}, {"spacing", "cell"}};
+  j["grid"]["r"] = {{"values", {0.25, 0.5}}};
+  auto s = parseScene(j);
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->grid[0].values, (std::vector<double>{0.125, 0.375, 0.625, 0.875}));
+  EXPECT_EQ(s->grid[1].values, (std::vector<double>{0.25, 0.5}));
+  auto again = parseScene(toJson(*s));  // canonical form of explicit values round-trips
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(toJson(*again), toJson(*s));
+}
+
+TEST(Scene, ErrorsNameThePathAndReason) {
+  json j = dfgScene();
+  j["grid"]["mu"]["count"] = 0;
+  EXPECT_NE(errorOf(j).find("s.json: /grid/mu/count: must be an integer"), std::string::npos)
+      << errorOf(j);
+  j = dfgScene();
+  j["material"]["visibility"] = "smith";
+  EXPECT_NE(errorOf(j).find("/material/visibility: must be one of"), std::string::npos);
+  j = dfgScene();
+  j["outputs"] = {"A", "Q"};
+  EXPECT_NE(errorOf(j).find("/outputs/1: unknown output \"Q\""), std::string::npos);
+  j = dfgScene();
+  j["grid"].erase("r");
+  EXPECT_NE(errorOf(j).find("/grid/r: missing"), std::string::npos);
+  j = dfgScene();
+  j["grid"]["mu"]["range"] = {-0.5, 1};
+  EXPECT_NE(errorOf(j).find("/grid/mu: value -0.5 outside the domain"), std::string::npos);
+  j = dfgScene();
+  j["material"]["fresnel"] = "none";
+  EXPECT_NE(errorOf(j).find("/material/fresnel"), std::string::npos);
+  j = dfgScene();
+  j["outputs"] = {"N"};
+  EXPECT_NE(errorOf(j).find("/light/type: output \"N\" needs a sphere light"), std::string::npos);
+  j = dfgScene();
+  j["extra"] = 1;
+  EXPECT_NE(errorOf(j).find("/extra: unknown key"), std::string::npos);
+  j = dfgScene();
+  j["accuracy"]["abs_error"] = "tiny";
+  EXPECT_NE(errorOf(j).find("/accuracy/abs_error: must be a finite number"), std::string::npos);
+  EXPECT_NE(errorOf(json::array()).find("s.json: /: must be an object"), std::string::npos);
+  auto missing = loadScene("/nonexistent/scene.json");
+  ASSERT_FALSE(missing);
+  EXPECT_NE(missing.error().find("/nonexistent/scene.json: cannot open"), std::string::npos);
+}
+
+TEST(Scene, SphereLight) {
+  json j = json::parse(R"({
+    "light": {"type": "sphere", "size": "tan_half_theta_s", "range": [0, 0.5]},
+    "outputs": ["N"],
+    "grid": {"r": {"count": 3, "range": [0.1, 1]}, "tan_half_theta_s": {"count": 5}}
+  })");
+  auto s = parseScene(j);
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->inputNames(), (std::vector<std::string>{"r", "tan_half_theta_s"}));
+  EXPECT_DOUBLE_EQ(s->grid[1].values.back(), 0.5);
+  EXPECT_TRUE(s->needs(Effect::Normalization));
+  EXPECT_FALSE(s->needs(Effect::Fresnel));
+  j["outputs"] = {"N", "A"};
+  EXPECT_NE(errorOf(j).find("/outputs: \"N\" has inputs"), std::string::npos);
+}
+
+TEST(Scene, MalformedScenesAreErrorsNotCrashes) {
+  const char* cases[] = {
+      R"({"outputs": "A"})",
+      R"({"outputs": ["A"], "grid": {"mu": 5, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2.5}, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2, "spacing": 3}, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2, "range": [1]}, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"values": ["x"]}, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"values": []}, "r": {"count": 2}}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2, "range": [1, 0]}, "r": {"count": 2}}})",
+      R"({"outputs": ["N"], "light": {"type": 5}, "grid": {}})",
+      R"({"outputs": ["N"], "light": {"type": "sphere", "range": [0, 2]}, "grid": {}})",
+      R"({"outputs": ["N"], "light": {"type": "sphere", "softmin_s": 3}, "grid": {}})",
+      R"({"outputs": ["N"], "light": {"type": "sphere", "incidence": "averaged"}, "grid": {}})",
+      R"({"outputs": ["E"], "light": {"type": "environment", "range": [0, 1]}, "grid": {}})",
+      R"({"outputs": ["A"], "material": {"fresnel": {"model": "schlick", "f90": 2}}, "grid": {}})",
+      R"({"outputs": ["A"], "material": 3, "grid": {}})",
+      R"({"outputs": ["A", "A"], "grid": {}})",
+      R"({"outputs": [], "grid": {}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2}, "r": {"count": 2}, "x": {}}})",
+      R"({"format": 2, "outputs": ["A"]})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2}, "r": {"count": 2}},
+          "accuracy": {"integrator": "monte-carlo"}})",
+      R"({"outputs": ["A"], "grid": {"mu": {"count": 2}, "r": {"count": 2}},
+          "accuracy": {"abs_error": 0}})",
+      "null",
+      "[]",
+      "3"};
+  for (const char* c : cases) {
+    auto s = parseScene(json::parse(c), "s.json");
+    EXPECT_FALSE(s) << c;
+    if (!s) {
+      EXPECT_EQ(s.error().rfind("s.json: /", 0), 0u) << s.error();
+    }
+  }
+}
