@@ -11,6 +11,9 @@
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
 #include "table_source.hpp"
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/score.hpp"
+#endif
 
 namespace {
 
@@ -79,6 +82,13 @@ int runMain(int argc, char** argv) {
     std::fprintf(stderr, "error: %s\n", table.error().c_str());
     return 2;
   }
+#ifdef LGP_HAVE_EMIT
+  // Reference formulas are checked before the night's work starts, not after.
+  if (auto st = lgp::emit::checkReferences(*cfg, *table); !st) {
+    std::fprintf(stderr, "error: %s\n", st.message().c_str());
+    return 2;
+  }
+#endif
   const bool quiet = args.count("quiet") > 0;
   const bool tty = isatty(fileno(stderr));
   if (!quiet)
@@ -109,7 +119,10 @@ int runMain(int argc, char** argv) {
   if (!quiet && tty) std::fprintf(stderr, "\n");
 
   const auto front = search.front();
-  const auto j = lgp::frontToJson(search, front);
+  auto j = lgp::frontToJson(search, front);
+#ifdef LGP_HAVE_EMIT
+  if (!cfg->references.empty()) j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
+#endif
   if (auto st = lgp::writeFrontJson(j, cfg->output.front_json); !st) {
     std::fprintf(stderr, "error: %s\n", st.message().c_str());
     return 1;

@@ -1,0 +1,103 @@
+// Exports a program (a front member) as an HLSL, GLSL or C++ function that computes what the
+// search scored. See emit/README.md for the languages, the protected helpers, `fast` and the
+// measured agreement with the interpreter.
+//
+// Pipeline: Program -> buildDag (effective opcodes, duplicates merged) -> simplify (constant
+// folding with the interpreter's semantics, exact rewrites, proven pow rewrites) -> render:
+// a node used more than once becomes a named local `tN`, single-use sub-expressions are
+// inlined, constants print as shortest round-trip literals, protected operators call small
+// `lgp_*` helpers emitted in front of the function (each behind an #ifndef guard, so several
+// emitted functions can share a file).
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/program.hpp"
+#include "lgp/core/status.hpp"
+#include "lgp/core/table.hpp"
+#include "lgp/emit/dag.hpp"
+#include "lgp/eval/objectives.hpp"
+
+namespace lgp::emit {
+
+enum class Language { Hlsl, Glsl, Cpp };
+std::string_view toString(Language l);
+std::optional<Language> languageFromString(std::string_view s);  // "hlsl", "glsl", "cpp"
+
+struct EmitOptions {
+  std::string function_name = "lgp_fit";  // a C identifier
+  // float everywhere; half: HLSL only (min-precision `half`, protection constants sized for
+  // binary16, error re-measured in half when `table` is set); double: C++ only.
+  Precision precision = Precision::Float;
+  // Emit the raw operator instead of the protected helper wherever interval analysis on the
+  // table's domain proves the protected branch is never taken (a comment lists them).
+  bool fast = false;
+  // pow(x, 2) -> x*x and friends where x >= 0 is proven (dag.hpp); off = only exact rewrites.
+  bool pow_rewrites = true;
+  // C++ float only: emit the interpreter's own exp2/log2/sin/cos polynomials (vecmath.hpp)
+  // instead of <cmath>, making the function bit-identical to the float32 interpreter.
+  bool exact_math = false;
+  bool header = true;    // the header comment (table, domain, metrics, costs, piecewise ops)
+  bool helpers = true;   // the lgp_* helper definitions (false: defined elsewhere)
+  bool includes = true;  // C++: the #include lines
+  const Table* table = nullptr;  // if set, the header's error is re-measured on it
+  std::string source;            // free text for the header, e.g. "front.json member 3"
+
+  Status validate(Language lang) const;
+};
+
+// Everything the emitter needs about one program.
+struct EmitInput {
+  Program program;
+  std::vector<std::string> input_names;     // table inputs: parameter names
+  std::vector<std::string> output_names;    // table outputs: struct fields / comments
+  std::vector<TargetTransform> transforms;  // per output; empty = none (the emitted function
+                                            // returns invertTransform(T, program output))
+  std::vector<Interval> domain;             // per input [lo, hi]; empty = unknown
+  std::string table_desc;                   // e.g. "dfg (256 rows)"
+  nlohmann::json output_metrics;  // optional, per output {"float32": {...}, "double": {...}}
+  nlohmann::json cost_by_target;  // optional, as recorded by the search
+};
+
+// The emitted text plus what the header states, for tests and tools.
+struct Emitted {
+  std::string code;                            // complete text: header, helpers, function
+  std::string function;                        // the function alone (header comment included)
+  std::vector<std::string> helpers;            // names of the helpers used, e.g. "lgp_div"
+  std::vector<std::string> raw_ops;            // ops emitted raw under `fast`
+  Dag dag;                                     // the simplified DAG that was rendered
+  std::array<double, kNumCostTargets> cost{};  // per target, inverse transforms included
+  int piecewise = 0;
+};
+
+Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts);
+
+// Member `member` of a front.json ("lgp-front/1"): program, names, transforms, domain and
+// metrics are taken from the front. Errors name the bad field.
+Expected<EmitInput> emitInputFromFront(const nlohmann::json& front, size_t member);
+Expected<std::string> emitFromFront(const nlohmann::json& front, size_t member, Language lang,
+                                    const EmitOptions& opts);
+
+// Member selection for `lgp emit` and lgpd. At most one criterion may be set; with none,
+// the member with the lowest error. max_error: the cheapest member with error <= E (ties:
+// lower error). max_cost: the most accurate member with cost <= C (ties: lower cost). Cost
+// is the member's "cost" (the run's cost model), or cost_by_target[cost_target] if set.
+struct MemberSelector {
+  std::optional<size_t> index;
+  std::optional<double> max_error;
+  std::optional<double> max_cost;
+  std::string cost_target;  // empty = the run's cost model
+};
+Expected<size_t> selectMember(const nlohmann::json& front, const MemberSelector& sel);
+
+// A C identifier made from a column name ("n.v" -> "n_v", "2x" -> "_2x"), never a keyword of
+// HLSL, GLSL or C++.
+std::string sanitizeIdentifier(std::string_view name);
+
+}  // namespace lgp::emit

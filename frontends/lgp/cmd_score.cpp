@@ -1,0 +1,182 @@
+// `lgp score table --expr "..."`: metrics and cost of a formula on a table, with the same
+// fields as a front member (so published formulas can be compared with a front).
+#include <cmath>
+#include <cstdio>
+#include <cxxopts.hpp>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "commands.hpp"
+#include "lgp/emit/score.hpp"
+
+namespace {
+
+int fail(const std::string& msg) {
+  std::fprintf(stderr, "error: %s\n", msg.c_str());
+  return 2;
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// Takes every `--expr X`, `--expr=X` and `-e X` out of argv (cxxopts would split a vector
+// option's value at commas, which formulas are full of).
+std::vector<std::string> takeExprs(int& argc, char** argv, std::string& error) {
+  std::vector<std::string> exprs;
+  int w = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--expr" || a == "-e") {
+      if (i + 1 >= argc) {
+        error = a + ": missing formula";
+        break;
+      }
+      exprs.push_back(argv[++i]);
+    } else if (a.rfind("--expr=", 0) == 0) {
+      exprs.push_back(a.substr(7));
+    } else {
+      argv[w++] = argv[i];
+    }
+  }
+  argc = w;
+  return exprs;
+}
+
+int scoreMain(int argc, char** argv) {
+  std::string expr_error;
+  std::vector<std::string> texts = takeExprs(argc, argv, expr_error);
+  if (!expr_error.empty()) return fail(expr_error);
+  cxxopts::Options opts(argv[0],
+                        "Score a formula on a table: metrics (float32 interpreter and double "
+                        "reference) and cost under every target model. Grammar: emit/README.md.");
+  opts.positional_help("table.{csv,json}");
+  opts.add_options()("table", "table file (CSV or lgp-table/1 JSON)",
+                     cxxopts::value<std::string>())(
+      "e,expr", "formula; repeat once per output, or assign every output in one")(
+      "expr-file", "file holding the formula (newlines separate statements)",
+      cxxopts::value<std::vector<std::string>>())(
+      "name", "label for the output", cxxopts::value<std::string>()->default_value("formula"))(
+      "inputs", "input columns, comma-separated (default: the file's)",
+      cxxopts::value<std::string>()->default_value(""))(
+      "outputs", "output columns, comma-separated (default: the file's)",
+      cxxopts::value<std::string>()->default_value(""))(
+      "weights", "per-row weight column", cxxopts::value<std::string>()->default_value(""))(
+      "a,alias", "NAME=INPUT: a formula name for a table input, e.g. NoV=mu (repeatable)",
+      cxxopts::value<std::vector<std::string>>())(
+      "error", "error objective: rmse, max_abs, mae, mean_rel",
+      cxxopts::value<std::string>()->default_value("rmse"))(
+      "combine", "across outputs: mean or max",
+      cxxopts::value<std::string>()->default_value("mean"))(
+      "cost-model", "gpu-generic, nvidia, gcn, rdna, cpu",
+      cxxopts::value<std::string>()->default_value("gpu-generic"))(
+      "json", "print the result as JSON (the fields of a front member)")("h,help", "this help");
+  opts.parse_positional({"table"});
+  cxxopts::ParseResult args;
+  try {
+    args = opts.parse(argc, argv);
+  } catch (const std::exception& e) {
+    return fail(e.what());
+  }
+  if (args.count("help")) {
+    std::cout << opts.help() << "\n";
+    return 0;
+  }
+  if (!args.count("table")) return fail("no table given (lgp score table.csv --expr \"...\")");
+  if (args.count("expr-file")) {
+    for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
+      std::ifstream in(f);
+      if (!in) return fail("--expr-file: cannot open " + f);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      texts.push_back(ss.str());
+    }
+  }
+  if (texts.empty()) return fail("give the formula with --expr or --expr-file");
+
+  const std::string tp = args["table"].as<std::string>();
+  auto raw = lgp::readTableFile(tp);
+  if (!raw) return fail(raw.error());
+  auto table = lgp::selectColumns(*raw, splitList(args["inputs"].as<std::string>()),
+                                  splitList(args["outputs"].as<std::string>()),
+                                  args["weights"].as<std::string>(), tp);
+  if (!table) return fail(table.error());
+
+  std::map<std::string, std::string> aliases;
+  if (args.count("alias"))
+    for (const auto& a : args["alias"].as<std::vector<std::string>>()) {
+      const auto eq = a.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == a.size())
+        return fail("--alias: expected NAME=INPUT (got '" + a + "')");
+      aliases[a.substr(0, eq)] = a.substr(eq + 1);
+    }
+
+  lgp::emit::ScoreOptions so;
+  const auto metric = lgp::errorMetricFromString(args["error"].as<std::string>());
+  if (!metric) return fail("--error: unknown metric '" + args["error"].as<std::string>() + "'");
+  so.error.metric = *metric;
+  const auto comb = lgp::outputCombineFromString(args["combine"].as<std::string>());
+  if (!comb) return fail("--combine: expected mean or max");
+  so.error.combine = *comb;
+  const auto target = lgp::costTargetFromString(args["cost-model"].as<std::string>());
+  if (!target)
+    return fail("--cost-model: unknown target '" + args["cost-model"].as<std::string>() + "'");
+  so.cost = lgp::CostModel::preset(*target);
+
+  auto r = lgp::emit::scoreFormula(args["name"].as<std::string>(), texts, aliases, *table, so);
+  if (!r) return fail(r.error());
+  const auto& j = *r;
+  if (args.count("json")) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  std::printf("%s on %s (%zu rows; inputs", j["name"].get<std::string>().c_str(), tp.c_str(),
+              table->rows());
+  for (const auto& n : table->input_names) std::printf(" %s", n.c_str());
+  std::printf("; outputs");
+  for (const auto& n : table->output_names) std::printf(" %s", n.c_str());
+  std::printf(")\n");
+  std::printf("program: %d opcodes, %d piecewise, %zu constants\n", j["opcodes"].get<int>(),
+              j["piecewise"].get<int>(), j["program"]["constants"].size());
+  for (const auto& o : j["outputs"])
+    std::printf("  %s = %s\n", o["name"].get<std::string>().c_str(),
+                o["expression"].get<std::string>().c_str());
+  std::printf("%-10s %-8s %11s %11s %11s %11s %11s\n", "output", "path", "rmse", "max_abs", "mae",
+              "mean_rel", "r2");
+  for (const auto& o : j["outputs"])
+    for (const char* path : {"float32", "double"}) {
+      const auto& m = o[path];
+      auto f = [&](const char* k) {
+        return m[k].is_number() ? num(m[k].get<double>()) : std::string("inf");
+      };
+      std::printf("%-10s %-8s %11s %11s %11s %11s %11s\n", o["name"].get<std::string>().c_str(),
+                  path, f("rmse").c_str(), f("max_abs").c_str(), f("mae").c_str(),
+                  f("mean_rel").c_str(), f("r2").c_str());
+    }
+  std::printf("error (%s, %s over outputs, float32): %s\n", args["error"].as<std::string>().c_str(),
+              args["combine"].as<std::string>().c_str(),
+              j["error"].is_number() ? num(j["error"].get<double>()).c_str() : "inf");
+  std::printf("cost (%s): %s   by target:", args["cost-model"].as<std::string>().c_str(),
+              num(j["cost"].get<double>()).c_str());
+  for (const auto& [k, v] : j["cost_by_target"].items())
+    std::printf(" %s %s", k.c_str(), num(v.get<double>()).c_str());
+  std::printf("\ndiscontinuity: %s\n", num(j["discontinuity"].get<double>()).c_str());
+  return 0;
+}
+
+}  // namespace
+
+LGP_REGISTER_COMMAND(kScoreCommand, "score", "score a formula (e.g. a published fit) on a table",
+                     scoreMain);

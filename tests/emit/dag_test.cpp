@@ -1,0 +1,189 @@
+// The emitter's DAG: construction and CSE, linearisation, simplification rules, interval
+// proofs behind --fast, costs, and binary16 rounding.
+#include <gtest/gtest.h>
+
+#include "emit_test_util.hpp"
+#include "lgp/emit/dag.hpp"
+#include "lgp/emit/emit.hpp"
+#include "lgp/emit/half.hpp"
+#include "lgp/emit/parser.hpp"
+#include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/objectives.hpp"
+
+namespace lgp::emit {
+namespace {
+
+Dag parse(const std::string& text) {
+  ParseOptions o;
+  o.input_names = {"x", "y"};
+  o.output_names = {"y0"};
+  o.fuse_mad = false;
+  auto pf = parseFormula({text}, o);
+  EXPECT_TRUE(pf.hasValue()) << pf.error();
+  return pf ? pf->dag : Dag{};
+}
+
+std::string simplified(const std::string& text, std::vector<Interval> dom = {}) {
+  SimplifyOptions so;
+  so.domain = dom;
+  return dagInfix(simplify(parse(text), so), {"x", "y"})[0];
+}
+
+TEST(EmitDag, ExactRewrites) {
+  EXPECT_EQ(simplified("x * 1 + 0"), "x");
+  EXPECT_EQ(simplified("1 * x - 0"), "x");
+  EXPECT_EQ(simplified("x / 1"), "x");
+  EXPECT_EQ(simplified("x / -1"), "(-x)");
+  EXPECT_EQ(simplified("x * -1"), "(-x)");
+  EXPECT_EQ(simplified("0 - x"), "(-x)");
+  EXPECT_EQ(simplified("-(-x)"), "x");
+  EXPECT_EQ(simplified("x + -2"), "(x - 2)");
+  EXPECT_EQ(simplified("x - -2"), "(x + 2)");
+  EXPECT_EQ(simplified("x + -y"), "(x - y)");
+  EXPECT_EQ(simplified("-y + x"), "(x - y)");
+  EXPECT_EQ(simplified("x - -y"), "(x + y)");
+  EXPECT_EQ(simplified("div(1, x + y)"), "rcp((x + y))");
+  EXPECT_EQ(simplified("mad(1, x, y)"), "(x + y)");
+  EXPECT_EQ(simplified("mad(x, -1, y)"), "(y - x)");
+  EXPECT_EQ(simplified("mad(x, y, 0)"), "(x * y)");
+  EXPECT_EQ(simplified("mad(2, 3, y)"), "(6 + y)");
+  EXPECT_EQ(simplified("exp2(3) * x"), "(8 * x)");  // folded with the interpreter's exp2
+}
+
+TEST(EmitDag, PowRewritesNeedAProvenNonNegativeBase) {
+  const std::vector<Interval> d = {Interval{0, 2, false}, Interval{-1, 1, false}};
+  EXPECT_EQ(simplified("pow(x, 2)", d), "square(x)");
+  EXPECT_EQ(simplified("pow(x, 3)", d), "(square(x) * x)");
+  EXPECT_EQ(simplified("pow(x, 4)", d), "square(square(x))");
+  EXPECT_EQ(simplified("pow(x, 0.5)", d), "sqrt(x)");
+  EXPECT_EQ(simplified("pow(x, 1)", d), "x");
+  EXPECT_EQ(simplified("pow(x, 0)", d), "1");
+  EXPECT_EQ(simplified("pow(y, 2)", d), "pow(y, 2)");  // y may be negative
+  EXPECT_EQ(simplified("pow(x, 2)"), "pow(x, 2)");     // no domain
+  EXPECT_EQ(simplified("pow(x, 2.5)", d), "pow(x, 2.5)");
+}
+
+TEST(EmitDag, DuplicatesMergeAndIntronsDrop) {
+  // r0 = x*y, r1 = x*y (duplicate), r2 = sin(x) (intron), r3 = r0 + r1
+  Program p;
+  auto X = [](int i) { return Operand{OperandKind::Var, static_cast<uint8_t>(i)}; };
+  auto R = [](int i) { return Operand{OperandKind::Reg, static_cast<uint8_t>(i)}; };
+  p.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Sin, {X(0)}},
+            Instr{Op::Add, {R(0), R(1)}}};
+  p.outputs = {3};
+  const Dag d = buildDag(p, 2);
+  EXPECT_EQ(d.numOps(), 2);
+  EXPECT_EQ(dagInfix(d, {"x", "y"})[0], "t0 = (x * y); (t0 + t0)");
+  EXPECT_LE(dagCost(d, CostModel::preset(CostTarget::GpuGeneric).cost),
+            CostModel::preset(CostTarget::GpuGeneric).programCost(p) - 1);
+}
+
+TEST(EmitDag, SimplifiedDagIsNeverMoreExpensiveAndLinearisesFaithfully) {
+  std::mt19937 rng(17);
+  const Table t = test::edgeTable(2);
+  const Dataset ds(t, 256);
+  Interpreter interp(256);
+  for (int i = 0; i < 300; ++i) {
+    const Program p = test::randomProgram(rng, 2, 2 + i % 14, 1 + i % 2, false);
+    SimplifyOptions so;
+    so.pow_rewrites = false;
+    const Dag d = simplify(buildDag(p, 2), so);
+    for (int c = 0; c < kNumCostTargets; ++c) {
+      const CostModel cm = CostModel::preset(static_cast<CostTarget>(c));
+      ASSERT_LE(dagCost(d, cm.cost), cm.programCost(p) + 1e-9) << "program " << i;
+    }
+    // DAG -> Program -> interpreter equals the DAG's own float evaluation, row by row.
+    auto lp = toProgram(d);
+    ASSERT_TRUE(lp.hasValue()) << lp.error();
+    const auto v = interp.evaluate(lp->program, ds);
+    std::vector<double> x(2);
+    for (size_t r = 0; r < t.rows(); r += 7) {
+      x[0] = t.inputs[0][r];
+      x[1] = t.inputs[1][r];
+      const auto e = evaluateRow(d, x.data(), Precision::Float);
+      for (size_t j = 0; j < e.size(); ++j)
+        ASSERT_EQ(test::ulpDistance(static_cast<float>(e[j]), v[j][r]), 0)
+            << "program " << i << " row " << r;
+    }
+  }
+}
+
+TEST(EmitDag, IntervalProofsBehindFast) {
+  auto proven = [](const std::string& text, std::vector<Interval> dom) {
+    const Dag d = parse(text);
+    const auto iv = nodeIntervals(d, dom);
+    return provenUnguarded(d, d.outputs[0], iv);
+  };
+  const Interval pos{0.5, 2, false}, unit{0, 1, false}, sym{-1, 1, false};
+  EXPECT_TRUE(proven("log2(x)", {pos, pos}));
+  EXPECT_FALSE(proven("log2(x)", {unit, pos}));  // log2(0) hits the floor
+  EXPECT_TRUE(proven("x / y", {sym, pos}));
+  EXPECT_FALSE(proven("x / y", {pos, sym}));
+  EXPECT_TRUE(proven("sqrt(x)", {unit, pos}));
+  EXPECT_FALSE(proven("sqrt(x - 0.5)", {unit, pos}));
+  EXPECT_TRUE(proven("rsqrt(x)", {pos, pos}));
+  EXPECT_TRUE(proven("exp2(x * 100)", {sym, pos}));
+  EXPECT_FALSE(proven("exp2(x * 200)", {sym, pos}));
+  EXPECT_TRUE(proven("pow(x, y)", {pos, sym}));
+  EXPECT_FALSE(proven("pow(x, y)", {unit, sym}));
+  EXPECT_TRUE(proven("exp(x)", {sym, pos}));
+  EXPECT_FALSE(proven("x / y", {pos, Interval{}}));  // unknown domain
+  EXPECT_TRUE(proven("saturate(x * y)", {sym, sym}));
+}
+
+TEST(EmitDag, IntervalsContainEveryInterpretedValue) {
+  std::mt19937 rng(29);
+  Table t;
+  t.input_names = {"x", "y"};
+  t.inputs.resize(2);
+  std::uniform_real_distribution<double> ux(-2, 3), uy(0.1, 4);
+  for (int r = 0; r < 400; ++r) {
+    t.inputs[0].push_back(ux(rng));
+    t.inputs[1].push_back(uy(rng));
+  }
+  t.inputs[0].push_back(-2);
+  t.inputs[1].push_back(0.1);
+  t.inputs[0].push_back(3);
+  t.inputs[1].push_back(4);
+  const std::vector<Interval> dom = {Interval{-2, 3, false}, Interval{0.1, 4, false}};
+  for (int i = 0; i < 300; ++i) {
+    const Program p = test::randomProgram(rng, 2, 2 + i % 10, 1, false);
+    const Dag d = buildDag(p, 2);
+    const auto iv = nodeIntervals(d, dom);
+    std::vector<double> x(2);
+    for (size_t r = 0; r < t.inputs[0].size(); ++r) {
+      x[0] = t.inputs[0][r];
+      x[1] = t.inputs[1][r];
+      Dag one = d;  // evaluate every node: make each one an output
+      one.outputs.clear();
+      for (size_t n = 0; n < d.nodes.size(); ++n) one.outputs.push_back(static_cast<int>(n));
+      const auto v = evaluateRow(one, x.data(), Precision::Float);
+      for (size_t n = 0; n < v.size(); ++n) {
+        if (std::isnan(v[n])) {
+          ASSERT_TRUE(iv[n].nan) << "program " << i << " node " << n;
+          continue;
+        }
+        ASSERT_GE(v[n], iv[n].lo) << "program " << i << " node " << n << " row " << r;
+        ASSERT_LE(v[n], iv[n].hi) << "program " << i << " node " << n << " row " << r;
+      }
+    }
+  }
+}
+
+TEST(EmitDag, HalfRounding) {
+  EXPECT_EQ(roundToHalf(1.0f), 1.0f);
+  EXPECT_EQ(roundToHalf(0.1f), 0.0999755859375f);
+  EXPECT_EQ(roundToHalf(65504.0f), 65504.0f);
+  EXPECT_TRUE(std::isinf(roundToHalf(65520.0f)));
+  EXPECT_EQ(roundToHalf(65519.0f), 65504.0f);
+  EXPECT_EQ(roundToHalf(1e-8f), 0.0f);
+  EXPECT_EQ(roundToHalf(5.0e-8f), 5.9604644775390625e-08f);  // smallest subnormal half
+  EXPECT_EQ(roundToHalf(-3.0f), -3.0f);
+  EXPECT_EQ(roundToHalf(1.0f + 0x1p-11f), 1.0f);  // tie to even
+  EXPECT_EQ(roundToHalf(1.0f + 3 * 0x1p-11f), 1.0f + 0x1p-9f);
+  EXPECT_EQ(applyHalf(Op::Div, 1.0f, 0.0f, 0, 0), 16384.0f);  // 1 / 2^-14
+  EXPECT_EQ(applyHalf(Op::Exp2, 40.0f, 0, 0, 0), 32768.0f);   // clamp at 15
+}
+
+}  // namespace
+}  // namespace lgp::emit

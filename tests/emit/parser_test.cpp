@@ -1,0 +1,271 @@
+// Parser: syntax and meaning, error messages, emit -> parse -> emit fixed points, and the
+// published DFG formulas of PUBLISHED.md parsing and scoring on the DFG table.
+#include <gtest/gtest.h>
+
+#include "emit_test_util.hpp"
+#include "lgp/emit/emit.hpp"
+#include "lgp/emit/parser.hpp"
+#include "lgp/emit/score.hpp"
+#include "lgp/eval/interpreter.hpp"
+
+namespace lgp::emit {
+namespace {
+
+ParseOptions xy(std::vector<std::string> outs = {"y0"}) {
+  ParseOptions o;
+  o.input_names = {"x", "y"};
+  o.output_names = std::move(outs);
+  return o;
+}
+
+std::vector<std::string> infixOf(const std::vector<std::string>& texts, const ParseOptions& o) {
+  auto pf = parseFormula(texts, o);
+  EXPECT_TRUE(pf.hasValue()) << pf.error();
+  return pf ? pf->infix : std::vector<std::string>{};
+}
+std::string infix1(const std::string& text) {
+  return infixOf({text}, xy())[0];
+}
+
+std::string parseError(const std::vector<std::string>& texts, const ParseOptions& o) {
+  auto pf = parseFormula(texts, o);
+  EXPECT_FALSE(pf.hasValue());
+  return pf ? "" : pf.error();
+}
+
+TEST(EmitParser, OperatorsAndPrecedence) {
+  EXPECT_EQ(infix1("x + y * 2"), "mad(y, 2, x)");  // unparenthesised product fuses
+  EXPECT_EQ(infix1("x * y + 2"), "mad(x, y, 2)");
+  EXPECT_EQ(infix1("(x * y) + 2"), "((x * y) + 2)");  // parenthesised: mul then add
+  EXPECT_EQ(infix1("x - y * 2"), "(x - (y * 2))");    // no fusion for '-'
+  EXPECT_EQ(infix1("-x * y"), "((-x) * y)");
+  EXPECT_EQ(infix1("-2.5 * x"), "(-2.5 * x)");  // negative literal folded
+  EXPECT_EQ(infix1("1 / x"), "rcp(x)");         // identical semantics, cheaper
+  EXPECT_EQ(infix1("2 / x"), "(2 / x)");
+  EXPECT_EQ(infix1("x^2 + y^3"), "(square(x) + (square(y) * y))");
+  EXPECT_EQ(infix1("x^0.7"), "pow(x, 0.7)");
+  EXPECT_EQ(infix1("2 * 3 + x"), "(6 + x)");  // constant folding
+  EXPECT_EQ(infix1("x > y ? x : 2"), "select(x, y, x, 2)");
+  EXPECT_EQ(infix1("x < y ? x : 2"), "select(y, x, x, 2)");
+  EXPECT_EQ(infix1("((x > y) ? x : 2)"), "select(x, y, x, 2)");
+  EXPECT_EQ(infix1("clamp(x, 0, 1) + clamp(y, -1, 2)"), "(saturate(x) + min(max(y, -1), 2))");
+  EXPECT_EQ(infix1("std::exp2(x) + lgp_div(x, y) + fabs(y)"), "((exp2(x) + (x / y)) + abs(y))");
+  EXPECT_EQ(infix1("mix(x, y, 0.5) + inversesqrt(x) + fma(x, y, 1.0f)"),
+            "((lerp(x, y, 0.5) + rsqrt(x)) + mad(x, y, 1))");
+  EXPECT_EQ(infix1("x0 * x1"), "(x * y)");  // positional names
+  EXPECT_EQ(infix1("m = x*x; // comment\n m + m /* c */"), "t0 = (x * x); (t0 + t0)");
+  EXPECT_EQ(infix1("float t = x;\nconst float u = t * 2.0f;\nreturn u"), "(x * 2)");
+}
+
+TEST(EmitParser, NewlinesContinueAfterAnOperator) {
+  EXPECT_EQ(infix1("a = x +\n y\n a * 3"), "((x + y) * 3)");
+  EXPECT_EQ(infix1("a = (x\n + y)\n a"), "(x + y)");
+}
+
+TEST(EmitParser, OutputsByPositionByNameAndVector) {
+  const auto o = xy({"A", "B"});
+  EXPECT_EQ(infixOf({"x + 1", "y * 2"}, o), (std::vector<std::string>{"(x + 1)", "(y * 2)"}));
+  // Named in swapped order: matched by name.
+  EXPECT_EQ(infixOf({"B = y * 2", "A = x + 1"}, o),
+            (std::vector<std::string>{"(x + 1)", "(y * 2)"}));
+  EXPECT_EQ(infixOf({"B = y * 2; A = x + B"}, o),
+            (std::vector<std::string>{"t0 = (y * 2); (x + t0)", "t0"}));
+  EXPECT_EQ(infixOf({"t = x * y; return float2(t, t + 1)"}, o),
+            (std::vector<std::string>{"t0 = (x * y); t0", "(t0 + 1)"}));
+  EXPECT_EQ(infixOf({"x; y"}, o), (std::vector<std::string>{"x", "y"}));
+  // Later texts see earlier names.
+  EXPECT_EQ(infixOf({"s = x + y; s * s", "s - 1"}, o),
+            (std::vector<std::string>{"t0 = (x + y); (t0 * t0)", "(t0 - 1)"}));
+}
+
+TEST(EmitParser, AliasesMapFormulaNamesToTableInputs) {
+  ParseOptions o;
+  o.input_names = {"mu", "rough"};
+  o.output_names = {"y"};
+  o.aliases = {{"NoV", "mu"}, {"r", "rough"}};
+  EXPECT_EQ(infixOf({"NoV * r"}, o)[0], "(mu * rough)");
+  o.aliases = {{"NoV", "nope"}};
+  EXPECT_NE(parseError({"NoV"}, o).find("alias NoV=nope: 'nope' is not a table input"),
+            std::string::npos);
+}
+
+TEST(EmitParser, ErrorsSayWhatAndWhere) {
+  EXPECT_NE(parseError({"x + foo"}, xy()).find("column 5: unknown name 'foo' (table inputs: x, y"),
+            std::string::npos);
+  EXPECT_NE(parseError({"min(x)"}, xy()).find("'min' takes 2 arguments, got 1"), std::string::npos);
+  EXPECT_NE(parseError({"frob(x)"}, xy()).find("unknown function 'frob'"), std::string::npos);
+  EXPECT_NE(parseError({"x + "}, xy()).find("unexpected end of formula"), std::string::npos);
+  EXPECT_NE(parseError({"(x + y"}, xy()).find("expected ')'"), std::string::npos);
+  EXPECT_NE(parseError({"x y"}, xy()).find("expected ';' or the end"), std::string::npos);
+  EXPECT_NE(parseError({"x $ y"}, xy()).find("unexpected character '$'"), std::string::npos);
+  EXPECT_NE(parseError({"x = 2"}, xy()).find("cannot assign to the input 'x'"), std::string::npos);
+  EXPECT_NE(parseError({"x > y"}, xy()).find("followed by '? a : b'"), std::string::npos);
+  EXPECT_NE(parseError({""}, xy()).find("empty formula"), std::string::npos);
+  EXPECT_NE(parseError({"A = x"}, xy({"A", "B"})).find("missing: B"), std::string::npos);
+  EXPECT_NE(parseError({"x", "y", "x"}, xy({"A", "B"})).find("got 3 expressions for 2 outputs"),
+            std::string::npos);
+  EXPECT_NE(parseError({"1.5.5"}, xy()).find("malformed number"), std::string::npos);
+}
+
+TEST(EmitParser, LeafOutputsAndLongFormulasBecomeValidPrograms) {
+  auto pf = parseFormula({"x", "2.5"}, xy({"A", "B"}));
+  ASSERT_TRUE(pf.hasValue()) << pf.error();
+  EXPECT_EQ(pf->program.code.size(), 2u);  // add(x, 0) and add(2.5, 0)
+  std::string big = "x";
+  for (int i = 0; i < 300; ++i) big = "(" + big + " * y + " + std::to_string(i % 7 + 1) + ")";
+  EXPECT_NE(parseError({big}, xy()).find("formula too long"), std::string::npos);
+}
+
+// emit -> parse -> emit: the printed infix and the HLSL/GLSL function bodies are fixed points.
+TEST(EmitParser, EmitParseReemitIsAFixedPoint) {
+  std::mt19937 rng(3);
+  int checked = 0;
+  for (int i = 0; i < 300; ++i) {
+    std::optional<Op> first;
+    if (i < kNumOps) first = static_cast<Op>(i);
+    const int k = 1 + i % 3;
+    const int len = std::max(k, std::uniform_int_distribution<int>(1, 14)(rng));
+    const Program p = test::randomProgram(rng, 2, len, k, false, first);
+    std::vector<std::string> outs;
+    for (int j = 0; j < k; ++j) outs.push_back("o" + std::to_string(j));
+    const std::vector<Interval> dom = {Interval{0.25, 4, false}, Interval{-1, 1, false}};
+    SimplifyOptions so;
+    so.domain = dom;
+    const Dag d = simplify(buildDag(p, 2), so);
+    const auto text = dagInfix(d, {"x", "y"});
+    const auto again = infixOf(text, xy(outs));
+    ASSERT_EQ(again, text) << "program " << i;
+    for (Language lang : {Language::Hlsl, Language::Glsl})
+      for (bool fast : {false, true}) {
+        EmitInput in;
+        in.program = p;
+        in.input_names = {"x", "y"};
+        in.output_names = outs;
+        in.domain = dom;
+        EmitOptions eo;
+        eo.function_name = "f";
+        eo.header = eo.helpers = false;
+        eo.fast = fast;
+        auto e1 = emitProgram(in, lang, eo);
+        ASSERT_TRUE(e1.hasValue()) << e1.error();
+        const std::string& code = e1->code;
+        const std::string body =
+            code.substr(code.find("{\n") + 2, code.rfind('}') - code.find("{\n") - 2);
+        auto pf = parseFormula({body}, xy(outs));
+        ASSERT_TRUE(pf.hasValue()) << pf.error() << "\n" << code;
+        in.program = pf->program;
+        auto e2 = emitProgram(in, lang, eo);
+        ASSERT_TRUE(e2.hasValue()) << e2.error();
+        ASSERT_EQ(e2->code, code) << "program " << i;
+        ++checked;
+      }
+  }
+  EXPECT_EQ(checked, 1200);
+}
+
+// The expressions a front prints (core toInfix) parse back into programs that the
+// interpreter evaluates bit-identically.
+TEST(EmitParser, FrontExpressionsParseBackExactly) {
+  std::mt19937 rng(8);
+  const Table t = test::edgeTable(1);
+  const Dataset ds(t, 256);
+  Interpreter interp(256);
+  for (int i = 0; i < 300; ++i) {
+    const int k = 1 + i % 2;
+    const Program p = test::randomProgram(rng, 2, std::max(k, 1 + i % 15), k, false);
+    std::vector<std::string> outs;
+    for (int j = 0; j < k; ++j) outs.push_back("o" + std::to_string(j));
+    const auto texts = toInfix(p, {"x", "y"});
+    auto pf = parseFormula(texts, xy(outs));
+    ASSERT_TRUE(pf.hasValue()) << pf.error() << "\n" << texts[0];
+    const auto a = interp.evaluate(p, ds);
+    const auto b = interp.evaluate(pf->program, ds);
+    for (int j = 0; j < k; ++j)
+      for (size_t r = 0; r < t.rows(); ++r)
+        ASSERT_EQ(test::ulpDistance(a[j][r], b[j][r]), 0)
+            << "program " << i << " output " << j << " row " << r << ": " << texts[j];
+  }
+}
+
+TEST(EmitParser, PublishedDfgFormulasParseAndScore) {
+  const Table dfg = test::loadDfg();
+  struct Pub {
+    std::string name;
+    std::vector<std::string> expr;
+  };
+  const std::vector<Pub> pubs = {
+      {"Karis EnvBRDFApprox",
+       {"qx = 1 - r; qy = -0.0275*r + 0.0425; qz = -0.572*r + 1.04; qw = 0.022*r - 0.04;\n"
+        "a004 = min(qx*qx, exp2(-9.28*NoV))*qx + qy\n"
+        "A = -1.04*a004 + qz;  B = 1.04*a004 + qw"}},
+      {"Iwanicki & Pesce",
+       {"m = r*r\nB = exp2(-(7*NoV + 4*m))\nA = 1 - B - m*max(B, min(r, 0.739 + 0.323*NoV) - "
+        "0.434)"}},
+      {"Narkowicz 2014",
+       {"x = (1 - r)*(1 - r); y = NoV\n"
+        "B = saturate(min(-0.1688*x + 1.895*x*x, 0.9903 - 4.853*y + 8.404*y*y - 5.069*y*y*y))\n"
+        "delta = saturate(0.6045 + 1.699*x - 0.5228*y - 3.603*x*x + 1.404*x*y + 0.1939*y*y + "
+        "2.661*x*x*x)\n"
+        "A = delta - B"}},
+      {"Ray Tracing Gems 32",
+       {"m = r*r\n"
+        "B  = ((0.99044 - 1.28514*NoV) + m*(1.29678 - 0.755907*NoV)) /\n"
+        "     ((1 + 2.92338*NoV + 59.4188*NoV^3) + m*(20.3225 - 27.0302*NoV + 222.592*NoV^3) + "
+        "m^3*(121.563 + 626.13*NoV + 316.627*NoV^3))\n"
+        "A = ((0.0365463 + 3.32707*NoV) + m*(9.0632 - 9.04756*NoV)) /\n"
+        "     ((1 + 3.59685*NoV^2 - 1.36772*NoV^3) + m*(9.04401 - 16.3174*NoV^2 + 9.22949*NoV^3) + "
+        "m^3*(5.56589 + 19.7886*NoV^2 - 20.2123*NoV^3))"}},
+  };
+  ScoreOptions so;
+  for (const auto& p : pubs) {
+    auto j = scoreFormula(p.name, p.expr, {}, dfg, so);
+    ASSERT_TRUE(j.hasValue()) << p.name << ": " << j.error();
+    const auto& r = *j;
+    EXPECT_EQ(r["name"], p.name);
+    ASSERT_TRUE(r["error"].is_number()) << p.name;
+    EXPECT_LT(r["error"].get<double>(), 0.2) << p.name;  // all are DFG fits (different G)
+    EXPECT_GT(r["cost"].get<double>(), 0) << p.name;
+    for (const char* t : {"gpu-generic", "nvidia", "gcn", "rdna", "cpu"})
+      EXPECT_TRUE(r["cost_by_target"][t].is_number()) << p.name << " " << t;
+    ASSERT_EQ(r["outputs"].size(), 2u);
+    EXPECT_EQ(r["outputs"][0]["name"], "A");
+    EXPECT_EQ(r["outputs"][1]["transform"], "none");
+    EXPECT_TRUE(r["outputs"][0]["double"]["rmse"].is_number());
+  }
+  // Karis: 12 opcodes, 4 of them fused mads, one exp2 and one min (piecewise).
+  auto k = scoreFormula("karis", pubs[0].expr, {}, dfg, so);
+  ASSERT_TRUE(k.hasValue());
+  EXPECT_EQ((*k)["opcodes"], 12);
+  EXPECT_EQ((*k)["piecewise"], 1);
+  EXPECT_DOUBLE_EQ((*k)["cost"].get<double>(), 15);  // 11 FMA-class + exp2 (4)
+  EXPECT_NE((*k)["outputs"][0]["expression"].get<std::string>().find("mad("), std::string::npos);
+}
+
+TEST(EmitParser, MaterialXRationalFitParses) {
+  const Table dfg = test::loadDfg();
+  // c[i][k] of PUBLISHED.md, t = (1, x, y, x*y, x^2, y^2, x^2*y, x*y^2, x^2*y^2).
+  const double c[9][4] = {{0.1003, 0.9345, 1.0, 1.0},     {-0.6303, -2.323, -1.765, 0.2281},
+                          {9.748, 2.229, 8.263, 15.94},   {-2.038, -3.748, 11.53, -55.83},
+                          {29.34, 1.424, 28.96, 13.08},   {-8.245, -0.7684, -7.507, 41.26},
+                          {-26.44, 1.436, -36.11, 54.9},  {19.99, 0.2913, 15.86, 300.2},
+                          {-5.448, 0.6286, 33.37, -285.1}};
+  const char* terms[9] = {"1", "x", "y", "x*y", "x*x", "y*y", "x*x*y", "x*y*y", "x*x*y*y"};
+  std::string text = "x = NoV; y = r*r\n";
+  for (int k = 0; k < 4; ++k) {
+    text += "R" + std::to_string(k) + " = ";
+    for (int i = 0; i < 9; ++i) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "%s%g*%s", i ? " + " : "", c[i][k], terms[i]);
+      text += buf;
+    }
+    text += "\n";
+  }
+  text += "A = saturate(R0/R2); B = saturate(R1/R3)";
+  auto j = scoreFormula("MaterialX", {text}, {}, dfg, ScoreOptions{});
+  ASSERT_TRUE(j.hasValue()) << j.error();
+  ASSERT_TRUE((*j)["error"].is_number());
+  EXPECT_LT((*j)["error"].get<double>(), 0.2);
+}
+
+}  // namespace
+}  // namespace lgp::emit
