@@ -392,8 +392,10 @@ struct CaseResult {
 CaseResult runCase(const Case& cs, const lgp::Table& table, int block, int threads) {
   const lgp::Dataset ds(table, block);
   const size_t rows = ds.rows();
-  lgp::BoundProgram bp;
+  lgp::BoundProgram bp, bp_plain;
   bp.bind(cs.prog, ds.numInputs());
+  bp_plain.fuse = false;  // baseline: one kernel per opcode
+  bp_plain.bind(cs.prog, ds.numInputs());
   std::vector<lgp::Interpreter> interps;
   for (int t = 0; t < threads; ++t) interps.emplace_back(block);
 
@@ -415,6 +417,11 @@ CaseResult runCase(const Case& cs, const lgp::Table& table, int block, int threa
   const double work = static_cast<double>(cs.eff_ops) * static_cast<double>(rows);
   CaseResult res;
   res.interp1 = work / medianSeconds([&](int n) { return interpretAll(bp, ds, interps, 1, n); });
+  const double plain1 =
+      work / medianSeconds([&](int n) { return interpretAll(bp_plain, ds, interps, 1, n); });
+  std::printf("  pair fusion: %zu kernel calls for %zu opcodes; 1 thread %.3e row-ops/s fused vs "
+              "%.3e unfused (%.2fx)\n",
+              bp.steps.size(), bp_plain.steps.size(), res.interp1, plain1, res.interp1 / plain1);
   res.interpN =
       work / medianSeconds([&](int n) { return interpretAll(bp, ds, interps, threads, n); });
   for (int v = 0; v < kNumCompiled; ++v) {
@@ -581,7 +588,7 @@ class FusedInterpreter {
   };
   int block_;
   std::vector<Planned> steps_;
-  std::vector<float> scratch_;
+  std::vector<float, lgp::AlignedAllocator<float>> scratch_;
   std::vector<const float*> ptrs_;
 };
 
@@ -589,6 +596,7 @@ class FusedInterpreter {
 void prototypeCase(const Case& cs, const lgp::Table& table, int block) {
   const lgp::Dataset ds(table, block);
   lgp::BoundProgram bp;
+  bp.fuse = false;  // the prototype plans its own pairs from the per-opcode binding
   bp.bind(cs.prog, ds.numInputs());
   FusedInterpreter proto(block);
   const int fused = proto.prepare(cs.prog, bp);

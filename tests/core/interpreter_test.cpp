@@ -70,7 +70,7 @@ void checkOp() {
   for (int i = 0; i < 200; ++i) xs.push_back(static_cast<float>(rng.uniform(-8, 8)));
   const int n = static_cast<int>(xs.size());
   // All operand combinations (a, b) over edges, c and d drawn from the list too.
-  std::vector<float> A, B, C, D;
+  std::vector<float, AlignedAllocator<float>> A, B, C, D;  // kernels require aligned columns
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; j += (arity(OP) >= 2 ? 1 : n)) {
       A.push_back(xs[i]);
@@ -84,7 +84,7 @@ void checkOp() {
     C.push_back(1);
     D.push_back(1);
   }
-  std::vector<float> out(A.size());
+  std::vector<float, AlignedAllocator<float>> out(A.size());
   k(out.data(), A.data(), B.data(), C.data(), D.data(), static_cast<int>(A.size()));
   int failures = 0;
   for (size_t i = 0; i < A.size() && failures < 5; ++i) {

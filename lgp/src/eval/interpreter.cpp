@@ -26,9 +26,18 @@ void freeAligned(float* p) {
   std::free(p);
 }
 
+// Every column is 64-byte aligned and n is a multiple of 16 (Dataset, scratch, constants).
+#define LGP_ALIGNED(p) static_cast<decltype(p)>(__builtin_assume_aligned(p, 64))
+
 template <Op OP>
 void kernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
             const float* __restrict c, const float* __restrict d, int n) {
+  out = LGP_ALIGNED(out);
+  a = LGP_ALIGNED(a);
+  b = LGP_ALIGNED(b);
+  c = LGP_ALIGNED(c);
+  d = LGP_ALIGNED(d);
+  n &= ~15;
 #pragma omp simd
   for (int i = 0; i < n; ++i) out[i] = sem::apply<OP, float>(a[i], b[i], c[i], d[i]);
 }
@@ -58,6 +67,14 @@ template <Op O1, Op O2, int MASK>
 void pairKernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
                 const float* __restrict c, const float* __restrict p0, const float* __restrict p1,
                 const float* __restrict p2, int n) {
+  out = LGP_ALIGNED(out);
+  a = LGP_ALIGNED(a);
+  b = LGP_ALIGNED(b);
+  c = LGP_ALIGNED(c);
+  p0 = LGP_ALIGNED(p0);
+  p1 = LGP_ALIGNED(p1);
+  p2 = LGP_ALIGNED(p2);
+  n &= ~15;
 #pragma omp simd
   for (int i = 0; i < n; ++i) {
     const float t = sem::apply<O1, float>(a[i], b[i], c[i], 0.0f);
