@@ -46,8 +46,11 @@ TEST(Pareto, RanksMatchBruteForceDefinition) {
     for (size_t j = 0; j < objs.size(); ++j)
       if (dominates(objs[j], objs[i])) expect = std::max(expect, r[j] + 1);
     EXPECT_EQ(r[i], expect);
-    for (size_t j = 0; j < objs.size(); ++j)
-      if (r[j] == r[i]) EXPECT_FALSE(dominates(objs[j], objs[i]));
+    for (size_t j = 0; j < objs.size(); ++j) {
+      if (r[j] == r[i]) {
+        EXPECT_FALSE(dominates(objs[j], objs[i]));
+      }
+    }
   }
 }
 
@@ -68,8 +71,11 @@ TEST(Archive, InvariantsHoldUnderRandomInsertion) {
   ASSERT_FALSE(m.empty());
   for (size_t i = 0; i < m.size(); ++i) {
     EXPECT_TRUE(m[i].obj.finite());
-    for (size_t j = 0; j < m.size(); ++j)
-      if (i != j) EXPECT_FALSE(dominates(m[j].obj, m[i].obj)) << i << " dominated by " << j;
+    for (size_t j = 0; j < m.size(); ++j) {
+      if (i != j) {
+        EXPECT_FALSE(dominates(m[j].obj, m[i].obj)) << i << " dominated by " << j;
+      }
+    }
   }
 }
 

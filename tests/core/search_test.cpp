@@ -127,12 +127,16 @@ TEST(Search, FrontIsNonDominatedFiniteAndConsistent) {
   for (size_t i = 0; i < front.size(); ++i) {
     EXPECT_TRUE(front[i].obj.finite());
     for (size_t j = 0; j < front.size(); ++j)
-      if (i != j) EXPECT_FALSE(dominates(front[j].obj, front[i].obj));
+      if (i != j) {
+        EXPECT_FALSE(dominates(front[j].obj, front[i].obj));
+      }
     // The reported float32 RMSE is the searched error; the double path agrees closely.
     EXPECT_NEAR(front[i].metrics[0].rmse, front[i].obj.error, 1e-12 + 1e-9 * front[i].obj.error);
     EXPECT_NEAR(front[i].metrics_ref[0].rmse, front[i].obj.error, 1e-4 * (1 + front[i].obj.error));
     EXPECT_EQ(front[i].cost_by_target[0], front[i].obj.cost);
-    if (i > 0) EXPECT_LE(front[i - 1].obj.cost, front[i].obj.cost);
+    if (i > 0) {
+      EXPECT_LE(front[i - 1].obj.cost, front[i].obj.cost);
+    }
   }
   // The lowest-error member is far better than the best constant.
   double best = INFINITY;
