@@ -419,9 +419,10 @@ CaseResult runCase(const Case& cs, const lgp::Table& table, int block, int threa
   res.interp1 = work / medianSeconds([&](int n) { return interpretAll(bp, ds, interps, 1, n); });
   const double plain1 =
       work / medianSeconds([&](int n) { return interpretAll(bp_plain, ds, interps, 1, n); });
-  std::printf("  pair fusion: %zu kernel calls for %zu opcodes; 1 thread %.3e row-ops/s fused vs "
-              "%.3e unfused (%.2fx)\n",
-              bp.steps.size(), bp_plain.steps.size(), res.interp1, plain1, res.interp1 / plain1);
+  std::printf(
+      "  pair fusion: %zu kernel calls for %zu opcodes; 1 thread %.3e row-ops/s fused vs "
+      "%.3e unfused (%.2fx)\n",
+      bp.steps.size(), bp_plain.steps.size(), res.interp1, plain1, res.interp1 / plain1);
   res.interpN =
       work / medianSeconds([&](int n) { return interpretAll(bp, ds, interps, threads, n); });
   for (int v = 0; v < kNumCompiled; ++v) {
@@ -473,166 +474,6 @@ CaseResult runCase(const Case& cs, const lgp::Table& table, int block, int threa
   return res;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Prototype of a suggested library change (the library does not use it; it is measured here so
-// that the suggestion comes with numbers): pair fusion. Every library kernel reads its
-// operands from and writes its result to a block column, so each opcode costs one vector store
-// per 8 rows; AVX2 cores retire at most one 256-bit store per cycle, which caps the interpreter
-// near 8 row-ops per cycle however cheap the operator. When an opcode's result is read only by
-// the next opcode (common in linear GP chains), one kernel can compute both and keep the
-// intermediate in a register, saving a store and a load. The prototype fuses such pairs when
-// both operators are among add/sub/mul/mad/min/max (6 x 6 operators x 7 operand masks = 252
-// kernels); anything else runs the library kernel. Same BoundProgram, same scratch layout.
-constexpr std::array<Op, 6> kFusable = {Op::Add, Op::Sub, Op::Mul, Op::Mad, Op::Min, Op::Max};
-
-using PairKernel = void (*)(float* out, const float* a, const float* b, const float* cc,
-                            const float* p0, const float* p1, const float* p2, int n);
-
-// out = O2(q0, q1, q2) with t = O1(a, b, c) and qj = (MASK >> j) & 1 ? t : pj[i].
-template <Op O1, Op O2, int MASK>
-void pairKernel(float* __restrict out, const float* __restrict a, const float* __restrict b,
-                const float* __restrict cc, const float* __restrict p0, const float* __restrict p1,
-                const float* __restrict p2, int n) {
-#pragma omp simd
-  for (int i = 0; i < n; ++i) {
-    const float t = lgp::sem::apply<O1, float>(a[i], b[i], cc[i], 0.0f);
-    const float q0 = (MASK & 1) ? t : p0[i];
-    const float q1 = (MASK & 2) ? t : p1[i];
-    const float q2 = (MASK & 4) ? t : p2[i];
-    out[i] = lgp::sem::apply<O2, float>(q0, q1, q2, 0.0f);
-  }
-}
-
-template <size_t I>
-constexpr PairKernel pairEntry() {
-  return &pairKernel<kFusable[I / 42], kFusable[(I / 7) % 6], static_cast<int>(I % 7) + 1>;
-}
-template <size_t... I>
-constexpr std::array<PairKernel, sizeof...(I)> pairTable(std::index_sequence<I...>) {
-  return {pairEntry<I>()...};
-}
-constexpr std::array<PairKernel, 6 * 6 * 7> kPairKernels =
-    pairTable(std::make_index_sequence<252>{});
-
-int fusableIndex(Op op) {
-  for (size_t k = 0; k < kFusable.size(); ++k)
-    if (kFusable[k] == op) return static_cast<int>(k);
-  return -1;
-}
-
-class FusedInterpreter {
- public:
-  explicit FusedInterpreter(int block) : block_(block) {}
-  // Plans the fused schedule of p as bound in bp (outside the timing). Returns fused pairs.
-  int prepare(const Program& p, const lgp::BoundProgram& bp) {
-    const auto eff = lgp::effectiveIndices(p);  // bp.steps[k] is opcode eff[k]
-    const int n = static_cast<int>(bp.steps.size());
-    std::vector<int> readers(bp.num_slots, 0);
-    for (int k = 0; k < n; ++k)
-      for (int j = 0; j < lgp::arity(p.code[eff[k]].op); ++j) ++readers[bp.steps[k].src[j]];
-    for (int32_t o : bp.output_slots) readers[o] += 100;
-    steps_.clear();
-    int fused = 0;
-    for (int k = 0; k < n; ++k) {
-      const auto& s1 = bp.steps[k];
-      Planned ps{s1.kernel, nullptr, s1.src, {0, 0, 0}, s1.dst};
-      if (k + 1 < n) {
-        const Op o1 = p.code[eff[k]].op, o2 = p.code[eff[k + 1]].op;
-        const auto& s2 = bp.steps[k + 1];
-        int mask = 0;
-        for (int j = 0; j < lgp::arity(o2); ++j) mask |= (s2.src[j] == s1.dst) << j;
-        int uses = 0;
-        for (int j = 0; j < 3; ++j) uses += (mask >> j) & 1;
-        const int i1 = fusableIndex(o1), i2 = fusableIndex(o2);
-        if (i1 >= 0 && i2 >= 0 && mask != 0 && readers[s1.dst] == uses) {
-          ps.pair = kPairKernels[static_cast<size_t>(i1 * 42 + i2 * 7 + mask - 1)];
-          for (int j = 0; j < 3; ++j) ps.src2[j] = s2.src[j] == s1.dst ? s2.src[0] : s2.src[j];
-          ps.dst = s2.dst;
-          ++k;
-          ++fused;
-        }
-      }
-      steps_.push_back(ps);
-    }
-    scratch_.assign(static_cast<size_t>(bp.num_slots - bp.num_inputs) * block_, 0.0f);
-    for (size_t c = 0; c < bp.const_values.size(); ++c)
-      std::fill_n(scratch_.data() + c * block_, block_, bp.const_values[c]);
-    ptrs_.resize(bp.num_slots);
-    return fused;
-  }
-  const float* evalBlock(const lgp::BoundProgram& bp, const lgp::Dataset& ds, size_t block) {
-    float* scratch = scratch_.data();
-    const size_t off = block * static_cast<size_t>(block_);
-    for (int i = 0; i < bp.num_inputs; ++i) ptrs_[i] = ds.input(i) + off;
-    for (int s = bp.num_inputs; s < bp.num_slots; ++s)
-      ptrs_[s] = scratch + static_cast<size_t>(s - bp.num_inputs) * block_;
-    const auto& q = ptrs_;
-    for (const auto& st : steps_) {
-      float* out = scratch + static_cast<size_t>(st.dst - bp.num_inputs) * block_;
-      if (st.pair)
-        st.pair(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src2[0]], q[st.src2[1]],
-                q[st.src2[2]], block_);
-      else
-        st.kernel(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src[3]], block_);
-    }
-    return ptrs_[bp.output_slots[0]];
-  }
-
- private:
-  struct Planned {
-    lgp::Kernel kernel;
-    PairKernel pair;  // non-null: fused pair, src = first opcode's operands, src2 = second's
-    std::array<int32_t, lgp::kMaxArity> src;
-    std::array<int32_t, 3> src2;
-    int32_t dst;
-  };
-  int block_;
-  std::vector<Planned> steps_;
-  std::vector<float, lgp::AlignedAllocator<float>> scratch_;
-  std::vector<const float*> ptrs_;
-};
-
-// Library interpreter vs the fused prototype on one case, 1 thread; outputs must agree exactly.
-void prototypeCase(const Case& cs, const lgp::Table& table, int block) {
-  const lgp::Dataset ds(table, block);
-  lgp::BoundProgram bp;
-  bp.fuse = false;  // the prototype plans its own pairs from the per-opcode binding
-  bp.bind(cs.prog, ds.numInputs());
-  FusedInterpreter proto(block);
-  const int fused = proto.prepare(cs.prog, bp);
-  std::vector<lgp::Interpreter> interps;
-  interps.emplace_back(block);
-  double diff = 0;
-  for (size_t b = 0; b < ds.numBlocks(); ++b) {
-    const float* want = interps[0].evalBlock(bp, ds, b)[0];
-    diff = std::max(diff, maxDiff(want, proto.evalBlock(bp, ds, b), block));
-  }
-  const double work = static_cast<double>(cs.eff_ops) * static_cast<double>(ds.rows());
-  const double lib_rate =
-      work / medianSeconds([&](int passes) { return interpretAll(bp, ds, interps, 1, passes); });
-  const double rate = work / medianSeconds([&](int passes) {
-                        for (int p = 0; p < passes; ++p) {
-                          for (size_t b = 0; b < ds.numBlocks(); ++b)
-                            benchmark::DoNotOptimize(proto.evalBlock(bp, ds, b));
-                          benchmark::ClobberMemory();
-                        }
-                        return -1.0;
-                      });
-  std::printf(
-      "  %-6s block %4d: %2d of %2d opcodes fused into pairs; library %10.3e, "
-      "fused %10.3e row-ops/s (%.2fx), max|diff| = %g\n",
-      cs.name, block, 2 * fused, cs.eff_ops, lib_rate, rate, rate / lib_rate, diff);
-}
-
-// pow(a, b) = exp2(b * log2(a)) with the protected semantics, as two loops over the block.
-void powTwoPass(float* __restrict out, const float* __restrict a, const float* __restrict b,
-                int n) {
-#pragma omp simd
-  for (int i = 0; i < n; ++i) out[i] = b[i] * lgp::sem::plog2(a[i]);
-#pragma omp simd
-  for (int i = 0; i < n; ++i) out[i] = lgp::sem::pexp2(out[i]);
-}
-
 // Throughput of each operator's kernel alone (kernelFor(op) over one L1-resident block of
 // 256 rows, called repeatedly): the per-opcode cost the interpreter pays, 1 thread. Operands:
 // a in [0.1, 2.1), b in [-2, 2), c in [0, 1), d = b (inside every domain, no denormals).
@@ -662,21 +503,6 @@ void perOpTable() {
     std::printf("  %-9.*s %12.3e %12.1f %13.1fx\n", static_cast<int>(info.name.size()),
                 info.name.data(), rate, sec * 1e9, add_rate / rate);
   }
-  // Prototype of a suggested library fix: pow in two passes over the block. In one pass each
-  // row is a single dependent chain (log2's division and polynomial, then exp2's polynomial)
-  // longer than the out-of-order window can overlap, so the kernel runs latency-bound at
-  // well over the cost of log2 plus exp2. Two passes give each loop short independent rows.
-  const double sec2 = medianSeconds([&](int passes) {
-    for (int p = 0; p < passes; ++p) {
-      powTwoPass(out, a, b, kN);
-      benchmark::DoNotOptimize(out);
-      benchmark::ClobberMemory();
-    }
-    return -1.0;
-  });
-  lgp::kernelFor(Op::Pow)(cc, a, b, b, b, kN);
-  std::printf("  %-9s %12.3e %12.1f %13.1fx   (prototype: two passes; max|diff| vs pow = %g)\n",
-              "pow-2pass", kN / sec2, sec2 * 1e9, add_rate / (kN / sec2), maxDiff(out, cc, kN));
 }
 
 void parseArgs(int argc, char** argv) {
@@ -750,12 +576,6 @@ int main(int argc, char** argv) {
   const CaseResult tr = runCase(cases[1], table, block, threads);
 
   perOpTable();
-
-  std::printf(
-      "\n== prototype of a suggested library fix: pair fusion of add/sub/mul/mad/min/max "
-      "==\n");
-  for (int bs : {256, 512})
-    for (const auto& cs : cases) prototypeCase(cs, table, bs);
 
   // Block-size sweep on the arithmetic program, over a dataset of at least 128K rows so that
   // every block size has many blocks. Working set per block: (constants + registers) x block.

@@ -7,7 +7,7 @@
 // generation, each the median of --reps identical runs (the search is deterministic, so every
 // repetition does the same work; the front must not depend on the thread count), by wall
 // clock and by the master thread's CPU time (see threadCpuSeconds). It then times the
-// non-dominated sorting alone against a prototype of a faster one (see rankingBench).
+// non-dominated sorting alone (see rankingBench).
 //
 // Usage: search_bench [--generations N] [--population N] [--reps N] [--threads N] [--seed N]
 //                     [--no-ranking] [--quick]
@@ -156,58 +156,9 @@ Summary measure(const lgp::Table& table, int threads) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Non-dominated sorting, measured alone. The profile of this benchmark (perf record -g, 1
-// thread) puts about a sixth of the run in lgp::nondominatedRanks, which compares every
-// individual with every one sorted before it (O(n^2) dominance tests per call; survive() calls
-// it twice per generation, on the 2N pool and on the N survivors). It is serial, so it also
-// caps the multi-thread speed-up. Below it is timed against a prototype returning the same
-// ranks: efficient non-dominated sort with sequential search (ENS-SS, Zhang et al. 2015): in
-// the same lexicographic order, each individual joins the first front none of whose members
-// dominates it, scanning each front from its last member and stopping at the first dominator.
-// Input: the distinct objective vectors of a real pool (population at generation G-1 plus that
-// at G, from checkpoints), as rankPopulation passes them.
-
-bool sameObjectives(const lgp::Objectives& a, const lgp::Objectives& b) {
-  return (a.error == b.error || (!a.finite() && !b.finite())) && a.cost == b.cost &&
-         a.discontinuity == b.discontinuity;
-}
-
-// Lexicographic (error, cost, discontinuity) order, non-finite error last: nondominatedRanks'.
-std::vector<int> lexOrder(const std::vector<lgp::Objectives>& objs) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  auto err = [&](int i) { return objs[i].finite() ? objs[i].error : kInf; };
-  std::vector<int> order(objs.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    if (err(a) != err(b)) return err(a) < err(b);
-    if (objs[a].cost != objs[b].cost) return objs[a].cost < objs[b].cost;
-    return objs[a].discontinuity < objs[b].discontinuity;
-  });
-  return order;
-}
-
-std::vector<int> ensRanks(const std::vector<lgp::Objectives>& objs) {
-  const auto order = lexOrder(objs);
-  std::vector<int> rank(objs.size(), 0);
-  std::vector<std::vector<int>> fronts;
-  for (const int i : order) {
-    size_t f = 0;
-    for (; f < fronts.size(); ++f) {
-      bool dominated = false;
-      for (auto it = fronts[f].rbegin(); it != fronts[f].rend(); ++it)
-        if (lgp::dominates(objs[*it], objs[i])) {
-          dominated = true;
-          break;
-        }
-      if (!dominated) break;
-    }
-    if (f == fronts.size()) fronts.emplace_back();
-    fronts[f].push_back(i);
-    rank[i] = static_cast<int>(f);
-  }
-  return rank;
-}
-
+// Non-dominated sorting (lgp::nondominatedRanks, ENS-SS) measured alone on the distinct
+// objective vectors of a real pool (population at generation G-1 plus that at G), as
+// rankPopulation passes them. It is serial, so it bounds the multi-thread speed-up.
 std::vector<lgp::Objectives> populationObjectives(const nlohmann::json& checkpoint) {
   std::vector<lgp::Objectives> out;
   for (const auto& ind : checkpoint.at("population")) {
@@ -229,34 +180,17 @@ void rankingBench(const lgp::Table& table) {
   search.step();
   const auto last = populationObjectives(search.checkpoint());
   pool.insert(pool.end(), last.begin(), last.end());
-  std::vector<lgp::Objectives> uniq;
-  const auto order = lexOrder(pool);
-  for (size_t k = 0; k < order.size(); ++k)
-    if (k == 0 || !sameObjectives(pool[order[k]], pool[order[k - 1]]))
-      uniq.push_back(pool[order[k]]);
-
-  const auto want = lgp::nondominatedRanks(uniq);
-  const auto got = ensRanks(uniq);
-  auto time = [&](auto&& fn) {
-    std::vector<double> t;
-    for (int rep = 0; rep < 7; ++rep) {
-      const double c0 = threadCpuSeconds();
-      for (int k = 0; k < 20; ++k) benchmark::DoNotOptimize(fn(uniq));
-      t.push_back((threadCpuSeconds() - c0) / 20);
-    }
-    std::sort(t.begin(), t.end());
-    return t[t.size() / 2];
-  };
-  const double t_lib = time(lgp::nondominatedRanks), t_proto = time(ensRanks);
-  std::printf(
-      "\n== non-dominated sorting alone (%zu distinct vectors of a %zu pool, generations %d+%d, "
-      "%d fronts; thread CPU time) ==\n",
-      uniq.size(), pool.size(), g_opt.generations - 1, g_opt.generations,
-      *std::max_element(want.begin(), want.end()) + 1);
-  std::printf("  lgp::nondominatedRanks (O(n^2) sweep): %8.3f ms per call\n", t_lib * 1e3);
-  std::printf(
-      "  prototype ENS-SS:                      %8.3f ms per call (%.1fx), same ranks: %s\n",
-      t_proto * 1e3, t_lib / t_proto, want == got ? "yes" : "NO");
+  std::vector<double> t;
+  std::vector<int> ranks;
+  for (int rep = 0; rep < 7; ++rep) {
+    const double c0 = threadCpuSeconds();
+    for (int k = 0; k < 20; ++k) benchmark::DoNotOptimize(ranks = lgp::nondominatedRanks(pool));
+    t.push_back((threadCpuSeconds() - c0) / 20);
+  }
+  std::sort(t.begin(), t.end());
+  std::printf("\n== non-dominated sorting alone (%zu individuals, %d fronts; thread CPU time) ==\n",
+              pool.size(), *std::max_element(ranks.begin(), ranks.end()) + 1);
+  std::printf("  lgp::nondominatedRanks: %8.3f ms per call\n", t[t.size() / 2] * 1e3);
 }
 
 void parseArgs(int argc, char** argv) {

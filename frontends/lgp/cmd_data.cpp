@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/datasets/generate.hpp"
 #include "lgp/datasets/scene.hpp"
@@ -36,21 +37,9 @@ int dataMain(int argc, char** argv) {
       "threads", "OpenMP threads (0 = all)", cxxopts::value<int>()->default_value("0"))(
       "q,quiet", "no summary")("h,help", "this help");
   opts.parse_positional({"scene"});
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  if (args.count("help")) {
-    std::cout << opts.help() << "\n";
-    return 0;
-  }
-  if (!args.count("scene")) {
-    std::fprintf(stderr, "error: no scene given\n%s\n", opts.help().c_str());
-    return 2;
-  }
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "scene", "no scene given");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const fs::path scene_path = args["scene"].as<std::string>();
   auto scene = ds::loadScene(scene_path);
   if (!scene) {

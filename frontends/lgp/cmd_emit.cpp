@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/io/result.hpp"
@@ -41,17 +42,10 @@ int emitMain(int argc, char** argv) {
       "o,out", "write to this file instead of stdout", cxxopts::value<std::string>())("h,help",
                                                                                       "this help");
   opts.parse_positional({"front"});
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-  if (args.count("help")) {
-    std::cout << opts.help() << "\n";
-    return 0;
-  }
-  if (!args.count("front")) return fail("no front file given (lgp emit front.json --lang hlsl)");
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "front",
+                                    "no front file given (lgp emit front.json --lang hlsl)");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const std::string path = args["front"].as<std::string>();
   auto front = lgp::readFrontJson(path);
   if (!front) return fail(front.error());

@@ -3,6 +3,7 @@
 #include <cxxopts.hpp>
 #include <iostream>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
 
@@ -15,21 +16,9 @@ int frontMain(int argc, char** argv) {
   opts.add_options()("front", "front JSON file", cxxopts::value<std::string>())(
       "json", "print the members as JSON instead of a table")("h,help", "this help");
   opts.parse_positional({"front"});
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  if (args.count("help")) {
-    std::cout << opts.help() << "\n";
-    return 0;
-  }
-  if (!args.count("front")) {
-    std::fprintf(stderr, "error: no front file given\n");
-    return 2;
-  }
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "front", "no front file given");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   auto front = lgp::readFrontJson(args["front"].as<std::string>());
   if (!front) {
     std::fprintf(stderr, "error: %s\n", front.error().c_str());

@@ -7,6 +7,7 @@
 #include <cxxopts.hpp>
 #include <iostream>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
@@ -45,21 +46,9 @@ int runMain(int argc, char** argv) {
       "wall-time", "override search.wall_time_s", cxxopts::value<double>())(
       "q,quiet", "no progress output")("h,help", "this help");
   opts.parse_positional({"config"});
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
-  }
-  if (args.count("help")) {
-    std::cout << opts.help() << "\n";
-    return 0;
-  }
-  if (!args.count("config")) {
-    std::fprintf(stderr, "error: no config given\n%s\n", opts.help().c_str());
-    return 2;
-  }
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "config", "no config given");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   auto cfg = lgp::loadRunConfig(args["config"].as<std::string>());
   if (!cfg) {
     std::fprintf(stderr, "error: %s\n", cfg.error().c_str());
@@ -121,7 +110,8 @@ int runMain(int argc, char** argv) {
   const auto front = search.front();
   auto j = lgp::frontToJson(search, front);
 #ifdef LGP_HAVE_EMIT
-  if (!cfg->references.empty()) j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
+  if (!cfg->references.empty())
+    j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
 #endif
   if (auto st = lgp::writeFrontJson(j, cfg->output.front_json); !st) {
     std::fprintf(stderr, "error: %s\n", st.message().c_str());

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/emit/score.hpp"
 
@@ -84,17 +85,10 @@ int scoreMain(int argc, char** argv) {
       cxxopts::value<std::string>()->default_value("gpu-generic"))(
       "json", "print the result as JSON (the fields of a front member)")("h,help", "this help");
   opts.parse_positional({"table"});
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    return fail(e.what());
-  }
-  if (args.count("help")) {
-    std::cout << opts.help() << "\n";
-    return 0;
-  }
-  if (!args.count("table")) return fail("no table given (lgp score table.csv --expr \"...\")");
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "table",
+                                    "no table given (lgp score table.csv --expr \"...\")");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   if (args.count("expr-file")) {
     for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
       std::ifstream in(f);

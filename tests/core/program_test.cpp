@@ -8,15 +8,9 @@
 namespace lgp {
 namespace {
 
-Operand X(int i) {
-  return {OperandKind::Var, static_cast<uint8_t>(i)};
-}
-Operand C(int i) {
-  return {OperandKind::Const, static_cast<uint8_t>(i)};
-}
-Operand R(int i) {
-  return {OperandKind::Reg, static_cast<uint8_t>(i)};
-}
+constexpr auto X = inputOperand;
+constexpr auto C = constOperand;
+constexpr auto R = regOperand;
 
 // r0 = x0 * c0      (effective)
 // r1 = x1 + x1      (intron)

@@ -7,15 +7,9 @@
 namespace lgp::emit {
 namespace {
 
-Operand X(int i) {
-  return {OperandKind::Var, static_cast<uint8_t>(i)};
-}
-Operand C(int i) {
-  return {OperandKind::Const, static_cast<uint8_t>(i)};
-}
-Operand R(int i) {
-  return {OperandKind::Reg, static_cast<uint8_t>(i)};
-}
+constexpr auto X = inputOperand;
+constexpr auto C = constOperand;
+constexpr auto R = regOperand;
 Instr I(Op op, Operand a, Operand b = {}, Operand c = {}, Operand d = {}) {
   Instr in;
   in.op = op;

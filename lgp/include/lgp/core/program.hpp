@@ -28,6 +28,11 @@ struct Operand {
   friend bool operator==(const Operand&, const Operand&) = default;
 };
 
+// Operand constructors, for building programs by hand (tests, parsers, examples).
+constexpr Operand inputOperand(int i) { return {OperandKind::Var, static_cast<uint8_t>(i)}; }
+constexpr Operand constOperand(int i) { return {OperandKind::Const, static_cast<uint8_t>(i)}; }
+constexpr Operand regOperand(int i) { return {OperandKind::Reg, static_cast<uint8_t>(i)}; }
+
 struct Instr {
   Op op = Op::Add;
   std::array<Operand, kMaxArity> args{};
