@@ -122,6 +122,10 @@ TEST_P(Variation, OperatorsAlwaysYieldValidPrograms) {
     }
     const Status st = validate(c, shape);
     ASSERT_TRUE(st) << "iteration " << it << ": " << st.message();
+    // Canonical genome: unused operand slots are always Operand{} (checkpoints are exact).
+    for (const auto& ins : c.code)
+      for (int a = arity(ins.op); a < kMaxArity; ++a)
+        ASSERT_EQ(ins.args[a], Operand{}) << "iteration " << it;
     pop[rng.below(50)] = std::move(c);
   }
 }

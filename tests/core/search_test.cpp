@@ -81,6 +81,22 @@ TEST(Search, ResumedRunEqualsUninterruptedRun) {
   EXPECT_EQ(resumed.progress().evaluations, full.progress().evaluations);
 }
 
+TEST(Search, LongResumedRunEqualsUninterruptedRun) {
+  // Long enough for operator mutations to revisit opcodes whose arity changed: the genome must
+  // be fully captured by the checkpoint (unused operand slots included).
+  RunConfig c = smallConfig(1);
+  c.search.generations = 60;
+  Search full(c, grid(10));
+  full.run();
+  Search first(c, grid(10));
+  for (int g = 0; g < 17; ++g) first.step();
+  Search resumed(c, grid(10));
+  ASSERT_TRUE(resumed.restore(nlohmann::json::parse(first.checkpoint().dump())));
+  resumed.run();
+  EXPECT_EQ(resumed.progress().evaluations, full.progress().evaluations);
+  EXPECT_EQ(members(resumed), members(full));
+}
+
 TEST(Search, CheckpointFromAnotherConfigIsRejected) {
   Search a(smallConfig(1), grid(12));
   a.step();

@@ -170,6 +170,7 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
     const int old_arity = arity(ins.op);
     ins.op = randomOp(shape, rng);
     for (int a = old_arity; a < arity(ins.op); ++a) ins.args[a] = randomOperand(shape, pos, rng);
+    for (int a = arity(ins.op); a < kMaxArity; ++a) ins.args[a] = Operand{};  // canonical
   } else if (u < 0.7 || shape.num_constants == 0) {
     const int a = static_cast<int>(rng.below(arity(ins.op)));
     ins.args[a] = randomOperand(shape, pos, rng);
