@@ -1,0 +1,108 @@
+// `lgp status [RUN] [--daemon URL] [--json]`: the runs lgpd knows (one line each), or one run
+// in detail. Exit code 1 when the daemon cannot be reached or the run is unknown.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <cxxopts.hpp>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "daemon_client.hpp"
+
+namespace lgp::cli {
+namespace {
+
+using nlohmann::json;
+
+std::string num(const json& v, const char* fmt = "%.4g") {
+  if (!v.is_number()) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, fmt, v.get<double>());
+  return buf;
+}
+
+std::string generations(const json& r) {
+  std::string s = std::to_string(r.value("generation", 0));
+  const json& b = r.value("budget", json::object());
+  if (b.contains("generations") && b["generations"].is_number_integer() &&
+      b["generations"].get<int64_t>() > 0)
+    s += "/" + std::to_string(b["generations"].get<int64_t>());
+  return s;
+}
+
+int statusMain(int argc, char** argv) {
+  cxxopts::Options opts("lgp status", "Show the runs of lgpd, or one run");
+  // clang-format off
+  opts.add_options()
+    ("run", "run id", cxxopts::value<std::string>())
+    ("daemon", "lgpd URL (default $LGP_DAEMON or http://127.0.0.1:8737)", cxxopts::value<std::string>()->default_value(""))
+    ("json", "print the daemon's JSON")
+    ("h,help", "this help");
+  // clang-format on
+  opts.parse_positional({"run"});
+  opts.positional_help("[RUN]");
+  auto args = opts.parse(argc, argv);
+  if (args.count("help")) {
+    std::printf("%s\n", opts.help().c_str());
+    return 0;
+  }
+  const std::string url = daemonUrl(args["daemon"].as<std::string>());
+  const bool one = args.count("run") > 0;
+  const std::string path =
+      one ? "/api/v1/runs/" + args["run"].as<std::string>() : std::string("/api/v1/runs");
+  auto r = daemonRequest(url, "GET", path);
+  if (!r) {
+    std::fprintf(stderr, "error: %s\n", r.error().c_str());
+    return 1;
+  }
+  if (r->status != 200) {
+    std::fprintf(stderr, "error: %s (HTTP %d)\n", r->errorMessage().c_str(), r->status);
+    return 1;
+  }
+  json j = r->json();
+  if (args.count("json")) {
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  if (!one) {
+    std::printf("%-16s  %-9s  %11s  %12s  %10s  %5s  %s\n", "RUN", "STATUS", "GENERATION",
+                "EVALUATIONS", "BEST ERROR", "FRONT", "NAME");
+    for (const auto& run : j.value("runs", json::array()))
+      std::printf("%-16s  %-9s  %11s  %12llu  %10s  %5lld  %s\n", run.value("id", "").c_str(),
+                  run.value("status", "").c_str(), generations(run).c_str(),
+                  static_cast<unsigned long long>(run.value("evaluations", uint64_t{0})),
+                  num(run["best_error"]).c_str(),
+                  static_cast<long long>(run.value("front_size", 0)),
+                  run.value("name", "").c_str());
+    return 0;
+  }
+  std::printf("run          %s%s\n", j.value("id", "").c_str(),
+              j.value("name", "").empty() ? "" : ("  (" + j.value("name", "") + ")").c_str());
+  std::printf("status       %s\n", j.value("status", "").c_str());
+  std::printf("generation   %s\n", generations(j).c_str());
+  std::printf("evaluations  %llu (%s/s)\n",
+              static_cast<unsigned long long>(j.value("evaluations", uint64_t{0})),
+              num(j["evals_per_s"], "%.3g").c_str());
+  std::printf("elapsed      %s s\n", num(j["elapsed_s"], "%.1f").c_str());
+  std::printf("front        %lld members\n", static_cast<long long>(j.value("front_size", 0)));
+  const json& best = j.value("best", json::object());
+  for (const char* k : {"error", "cost", "discontinuity"}) {
+    if (!best.contains(k)) continue;
+    std::printf("best %-13s %s (member %d)\n", k, num(best[k]["value"]).c_str(),
+                best[k].value("member", -1));
+  }
+  if (j.contains("checkpoint") && j["checkpoint"].is_object())
+    std::printf("checkpoint   generation %d\n", j["checkpoint"].value("generation", 0));
+  if (j.value("resumes", 0) > 0) std::printf("resumed      %d time(s)\n", j.value("resumes", 0));
+  if (!j.value("stop_reason", "").empty())
+    std::printf("stopped by   %s\n", j.value("stop_reason", "").c_str());
+  if (j.contains("error")) std::printf("error        %s\n", j["error"].dump().c_str());
+  return 0;
+}
+
+}  // namespace
+
+LGP_REGISTER_COMMAND(kStatusCommand, "status", "show the runs of lgpd, or one run", statusMain);
+
+}  // namespace lgp::cli

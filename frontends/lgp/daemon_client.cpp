@@ -1,0 +1,104 @@
+#include "daemon_client.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+
+#ifdef LGP_HAVE_HTTPLIB
+#include <httplib.h>
+#endif
+
+#include "lgp/io/result.hpp"
+
+namespace lgp::cli {
+
+std::string daemonUrl(const std::string& flag) {
+  std::string url = flag;
+  if (url.empty())
+    if (const char* env = std::getenv("LGP_DAEMON"); env && *env) url = env;
+  if (url.empty()) url = kDefaultDaemonUrl;
+  if (url.find("://") == std::string::npos) url = "http://" + url;
+  while (url.size() > 8 && url.back() == '/') url.pop_back();
+  return url;
+}
+
+nlohmann::json DaemonReply::json() const {
+  return nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
+}
+
+std::string DaemonReply::errorMessage() const {
+  auto j = json();
+  if (j.is_object() && j.contains("error") && j["error"].is_string())
+    return j["error"].get<std::string>();
+  return body.empty() ? "HTTP " + std::to_string(status) : body;
+}
+
+#ifdef LGP_HAVE_HTTPLIB
+
+Expected<DaemonReply> daemonRequest(const std::string& url, const std::string& method,
+                                    const std::string& path, const std::string& body) {
+  httplib::Client client(url);
+  if (!client.is_valid()) return Status::error("invalid daemon URL '" + url + "'");
+  client.set_connection_timeout(5);
+  client.set_read_timeout(60);
+  httplib::Headers headers;
+  if (const char* tok = std::getenv("LGP_DAEMON_TOKEN"); tok && *tok)
+    headers.emplace("Authorization", std::string("Bearer ") + tok);
+  if (method != "GET" && method != "POST" && method != "DELETE")
+    return Status::error("unsupported method " + method);
+  httplib::Result res = method == "GET"    ? client.Get(path, headers)
+                        : method == "POST" ? client.Post(path, headers, body, "application/json")
+                                           : client.Delete(path, headers);
+  if (!res)
+    return Status::error("cannot reach lgpd at " + url + " (" + httplib::to_string(res.error()) +
+                         "); is it running? (--daemon URL or $LGP_DAEMON)");
+  DaemonReply r;
+  r.status = res->status;
+  r.body = res->body;
+  return r;
+}
+
+#else
+
+Expected<DaemonReply> daemonRequest(const std::string&, const std::string&, const std::string&,
+                                    const std::string&) {
+  return Status::error("this lgp was built without cpp-httplib (libcpp-httplib-dev)");
+}
+
+#endif
+
+int daemonFront(const std::string& url, const std::string& run, const std::string& out_path,
+                bool json) {
+  auto r = daemonRequest(url, "GET", "/api/v1/runs/" + run + "/front");
+  if (!r) {
+    std::fprintf(stderr, "error: %s\n", r.error().c_str());
+    return 1;
+  }
+  if (r->status != 200) {
+    std::fprintf(stderr, "error: %s (HTTP %d)\n", r->errorMessage().c_str(), r->status);
+    return 1;
+  }
+  auto front = r->json();
+  if (!front.is_object()) {
+    std::fprintf(stderr, "error: the daemon's front is not JSON\n");
+    return 1;
+  }
+  if (!out_path.empty()) {
+    auto s = writeFrontJson(front, out_path);
+    if (!s) {
+      std::fprintf(stderr, "error: %s\n", s.message().c_str());
+      return 1;
+    }
+  }
+  if (json) {
+    std::printf("%s\n", front.dump(2).c_str());
+  } else {
+    const auto& info = front.value("lgpd", nlohmann::json::object());
+    std::printf("run %s: %s front at generation %d\n", run.c_str(),
+                info.value("final", false) ? "final" : "live", info.value("generation", 0));
+    std::printf("%s", formatFrontTable(front).c_str());
+  }
+  return 0;
+}
+
+}  // namespace lgp::cli

@@ -1,0 +1,464 @@
+#include "api.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <string_view>
+
+#include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/objectives.hpp"
+#include "lgp/io/result.hpp"
+#include "lgpd_web.hpp"
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/emit.hpp"
+#endif
+
+namespace lgpd {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr size_t kDefaultResidualRows = 65536;
+constexpr size_t kMaxHistoryRows = 5000;
+
+void sendJson(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  // Non-finite doubles print as null; invalid UTF-8 from a table name is replaced.
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
+}
+
+void sendError(httplib::Response& res, int status, const std::string& msg,
+               const std::string& field = "") {
+  json body = {{"error", msg}, {"status", status}};
+  if (!field.empty()) body["field"] = field;
+  sendJson(res, status, body);
+}
+
+// "/search/population: must be ..." -> "/search/population".
+std::string fieldOf(const std::string& msg) {
+  if (msg.empty() || msg[0] != '/') return "";
+  auto colon = msg.find(": ");
+  return colon == std::string::npos ? "" : msg.substr(0, colon);
+}
+
+// Compares without an early exit, so the time taken does not reveal a matching prefix.
+bool constantTimeEqual(std::string_view a, std::string_view b) {
+  if (a.size() != b.size() || b.empty()) return false;
+  unsigned char diff = 0;
+  for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return diff == 0;
+}
+
+std::vector<std::string> splitPath(const std::string& p) {
+  std::vector<std::string> out;
+  size_t i = 0;
+  while (i <= p.size()) {
+    size_t j = p.find('/', i);
+    if (j == std::string::npos) j = p.size();
+    out.push_back(p.substr(i, j - i));
+    i = j + 1;
+  }
+  return out;
+}
+
+std::optional<size_t> parseIndex(const std::string& s) {
+  if (s.empty() || s.size() > 9) return std::nullopt;
+  size_t v = 0;
+  auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || ptr != s.data() + s.size()) return std::nullopt;
+  return v;
+}
+
+json numberOrNull(double v) {
+  return std::isfinite(v) ? json(v) : json(nullptr);
+}
+
+json runSummary(const RunRecord& r, bool active) {
+  const auto& c = r.counters;
+  json budget = json::object();
+  if (auto s = r.config.find("search"); s != r.config.end() && s->is_object()) {
+    for (const char* k : {"generations", "max_evaluations", "wall_time_s"})
+      if (s->contains(k)) budget[k] = (*s)[k];
+  }
+  json j = {
+      {"id", r.id},
+      {"name", r.name},
+      {"status", std::string(toString(r.status))},
+      {"active", active},
+      {"created_at", r.created_at},
+      {"started_at", r.started_at > 0 ? json(r.started_at) : json(nullptr)},
+      {"finished_at", r.finished_at > 0 ? json(r.finished_at) : json(nullptr)},
+      {"generation", c.generation},
+      {"evaluations", c.evaluations},
+      {"elapsed_s", c.elapsed_s},
+      {"evals_per_s", numberOrNull(c.evals_per_s)},
+      {"front_size", c.front_size},
+      {"best_error", numberOrNull(c.best_error)},
+      {"best", c.best},
+      {"stop_reason", c.stop_reason},
+      {"cancel_requested", r.cancel_requested},
+      {"resumes", r.resumes},
+      {"budget", budget},
+      {"checkpoint", r.checkpoint_generation >= 0
+                         ? json{{"generation", r.checkpoint_generation}, {"at", r.checkpoint_at}}
+                         : json(nullptr)},
+  };
+  if (!r.error.empty()) j["error"] = r.error;
+  return j;
+}
+
+class Api {
+ public:
+  Api(Store& store, JobManager& jobs) : store_(store), jobs_(jobs) {}
+
+  void install(httplib::Server& svr) {
+    const auto& cfg = jobs_.daemonConfig();
+    svr.set_payload_max_length(cfg.max_body_bytes);
+    token_ = cfg.token;
+
+    svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      if (token_.empty() || req.path.rfind("/api/", 0) != 0 || req.path == "/api/v1/health")
+        return httplib::Server::HandlerResponse::Unhandled;
+      std::string auth = req.get_header_value("Authorization");
+      constexpr std::string_view kBearer = "Bearer ";
+      if (auth.size() > kBearer.size() && auth.compare(0, kBearer.size(), kBearer) == 0 &&
+          constantTimeEqual(std::string_view(auth).substr(kBearer.size()), token_))
+        return httplib::Server::HandlerResponse::Unhandled;
+      res.set_header("WWW-Authenticate", "Bearer");
+      sendError(res, 401, "missing or wrong bearer token");
+      return httplib::Server::HandlerResponse::Handled;
+    });
+    svr.set_error_handler([](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return;
+      std::string msg = res.status == 413   ? "request body too large"
+                        : res.status == 404 ? "no such route"
+                        : res.status == 400 ? "bad request"
+                                            : "HTTP error " + std::to_string(res.status);
+      sendError(res, res.status, msg);
+    });
+    svr.set_exception_handler(
+        [](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
+          std::string what = "unknown";
+          try {
+            if (ep) std::rethrow_exception(ep);
+          } catch (const std::exception& e) {
+            what = e.what();
+          } catch (...) {
+          }
+          spdlog::error("{} {}: {}", req.method, req.path, what);
+          sendError(res, 500, "internal error");
+        });
+    svr.set_default_headers({{"X-Content-Type-Options", "nosniff"},
+                             {"Cache-Control", "no-store"},
+                             {"Referrer-Policy", "no-referrer"}});
+
+    auto page = [](const httplib::Request&, httplib::Response& res) {
+      res.set_header("Content-Security-Policy",
+                     "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
+                     "img-src 'self' data:; connect-src 'self'");
+      res.set_content(web::kIndexHtml, "text/html; charset=utf-8");
+    };
+    svr.Get("/", page);
+    svr.Get("/index.html", page);
+
+    svr.Get(R"(/api/v1(/.*)?)",
+            [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
+    svr.Post(R"(/api/v1(/.*)?)",
+             [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
+    svr.Delete(R"(/api/v1(/.*)?)",
+               [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
+    svr.set_logger([](const httplib::Request& req, const httplib::Response& res) {
+      spdlog::debug("{} {} -> {}", req.method, req.path, res.status);
+    });
+  }
+
+ private:
+  // /api/v1/<segments...>, dispatched by hand so that every malformed id is a clean 400.
+  void route(const httplib::Request& req, httplib::Response& res) {
+    std::string rest = req.path.substr(std::string_view("/api/v1").size());
+    if (!rest.empty() && rest[0] == '/') rest.erase(0, 1);
+    while (!rest.empty() && rest.back() == '/') rest.pop_back();
+    auto seg = splitPath(rest);
+    const std::string& m = req.method;
+
+    if (seg.size() == 1 && seg[0] == "health") {
+      if (m != "GET") return methodNotAllowed(res);
+      return sendJson(res, 200, {{"ok", true}, {"service", "lgpd"}, {"api", "v1"}});
+    }
+    if (seg.empty() || seg[0] != "runs") return sendError(res, 404, "no such route");
+    if (seg.size() == 1) {
+      if (m == "GET") return listRuns(res);
+      if (m == "POST") return submit(req, res);
+      return methodNotAllowed(res);
+    }
+    const std::string& id = seg[1];
+    if (!isValidRunId(id))
+      return sendError(res, 400, "invalid run id (expected 16 lowercase hex digits)");
+    if (seg.size() == 2) {
+      if (m == "GET") return getRun(id, res);
+      if (m == "DELETE") return deleteRun(id, res);
+      return methodNotAllowed(res);
+    }
+    if (seg.size() == 3 && seg[2] == "cancel") {
+      if (m != "POST") return methodNotAllowed(res);
+      return cancelRun(id, res);
+    }
+    if (seg.size() == 3 && seg[2] == "history") {
+      if (m != "GET") return methodNotAllowed(res);
+      return history(id, res);
+    }
+    if (seg.size() >= 3 && seg[2] == "front") {
+      if (m != "GET") return methodNotAllowed(res);
+      if (seg.size() == 3) return front(id, res);
+      auto k = parseIndex(seg[3]);
+      if (!k) return sendError(res, 400, "invalid member index (expected a non-negative integer)");
+      if (seg.size() == 4) return member(id, *k, res);
+      if (seg.size() == 5 && seg[4] == "code") return code(id, *k, req, res);
+      if (seg.size() == 5 && seg[4] == "residuals") return residuals(id, *k, req, res);
+    }
+    return sendError(res, 404, "no such route");
+  }
+
+  void methodNotAllowed(httplib::Response& res) {
+    sendError(res, 405, "method not allowed on this route");
+  }
+
+  // Loads a run or answers 404/500; nullopt means the response is already set.
+  std::optional<RunRecord> loadRun(const std::string& id, httplib::Response& res) {
+    auto r = store_.getRun(id);
+    if (!r) {
+      spdlog::error("{}", r.error());
+      sendError(res, 500, "store error");
+      return std::nullopt;
+    }
+    if (!*r) {
+      sendError(res, 404, "no run " + id);
+      return std::nullopt;
+    }
+    return std::move(**r);
+  }
+
+  std::optional<StoredFront> loadFront(const std::string& id, httplib::Response& res) {
+    auto f = store_.loadFront(id);
+    if (!f) {
+      spdlog::error("{}", f.error());
+      sendError(res, 500, "store error");
+      return std::nullopt;
+    }
+    if (!*f) {
+      sendError(res, 404, "run " + id + " has no front yet");
+      return std::nullopt;
+    }
+    return std::move(**f);
+  }
+
+  void listRuns(httplib::Response& res) {
+    auto runs = store_.listRuns();
+    if (!runs) return sendError(res, 500, "store error: " + runs.error());
+    json list = json::array();
+    for (const auto& r : *runs) list.push_back(runSummary(r, jobs_.isActive(r.id)));
+    sendJson(res, 200, {{"runs", list}});
+  }
+
+  void submit(const httplib::Request& req, httplib::Response& res) {
+    json body;
+    try {
+      body = json::parse(req.body);
+    } catch (const json::parse_error& e) {
+      return sendError(res, 400, std::string("malformed JSON: ") + e.what());
+    }
+    auto prepared = jobs_.prepare(body);
+    if (!prepared) return sendError(res, 400, prepared.error(), fieldOf(prepared.error()));
+    auto id = jobs_.submit(std::move(*prepared));
+    if (!id) return sendError(res, 500, "store error: " + id.error());
+    res.set_header("Location", "/api/v1/runs/" + *id);
+    sendJson(res, 201, {{"id", *id}, {"status", "queued"}, {"url", "/api/v1/runs/" + *id}});
+  }
+
+  void getRun(const std::string& id, httplib::Response& res) {
+    auto r = loadRun(id, res);
+    if (!r) return;
+    json j = runSummary(*r, jobs_.isActive(id));
+    j["config"] = r->config;
+    if (r->inline_table) j["config"]["data"]["table"] = "(inline)";
+    sendJson(res, 200, j);
+  }
+
+  void history(const std::string& id, httplib::Response& res) {
+    if (!loadRun(id, res)) return;
+    auto h = store_.history(id, kMaxHistoryRows);
+    if (!h) return sendError(res, 500, "store error: " + h.error());
+    json rows = json::array();
+    for (const auto& p : *h)
+      rows.push_back({{"t", p.t},
+                      {"generation", p.generation},
+                      {"evaluations", p.evaluations},
+                      {"elapsed_s", p.elapsed_s},
+                      {"best_error", numberOrNull(p.best_error)},
+                      {"front_size", p.front_size},
+                      {"event", p.event}});
+    sendJson(res, 200, {{"id", id}, {"history", rows}});
+  }
+
+  void deleteRun(const std::string& id, httplib::Response& res) {
+    auto r = jobs_.remove(id);
+    if (!r) return sendError(res, 500, "store error: " + r.error());
+    if (!*r) return sendError(res, 404, "no run " + id);
+    sendJson(res, 200, {{"id", id}, {"deleted", true}});
+  }
+
+  void cancelRun(const std::string& id, httplib::Response& res) {
+    auto r = loadRun(id, res);
+    if (!r) return;
+    if (r->status != RunStatus::Queued && r->status != RunStatus::Running)
+      return sendError(res, 409, "run " + id + " is already " + std::string(toString(r->status)));
+    bool active = jobs_.cancel(id);
+    auto after = loadRun(id, res);
+    if (!after) return;
+    std::string status(toString(after->status));
+    if (active && after->status == RunStatus::Running) status = "cancelling";
+    sendJson(res, 200, {{"id", id}, {"status", status}});
+  }
+
+  void front(const std::string& id, httplib::Response& res) {
+    if (!loadRun(id, res)) return;
+    auto f = loadFront(id, res);
+    if (!f) return;
+    json j = std::move(f->front);
+    j["lgpd"] = {{"run", id}, {"final", f->final}, {"generation", f->generation}};
+    sendJson(res, 200, j);
+  }
+
+  // The member object of the front, or a 404.
+  std::optional<json> memberOf(const json& front, size_t k, const std::string& id,
+                               httplib::Response& res) {
+    const auto& members = front.value("members", json::array());
+    if (!members.is_array() || k >= members.size()) {
+      sendError(res, 404,
+                "run " + id + " has no front member " + std::to_string(k) + " (front has " +
+                    std::to_string(members.is_array() ? members.size() : 0) + ")");
+      return std::nullopt;
+    }
+    return members[k];
+  }
+
+  void member(const std::string& id, size_t k, httplib::Response& res) {
+    if (!loadRun(id, res)) return;
+    auto f = loadFront(id, res);
+    if (!f) return;
+    auto m = memberOf(f->front, k, id, res);
+    if (!m) return;
+    sendJson(res, 200, *m);
+  }
+
+  void code(const std::string& id, size_t k, const httplib::Request& req, httplib::Response& res) {
+    std::string lang = req.has_param("lang") ? req.get_param_value("lang") : "hlsl";
+    if (lang != "hlsl" && lang != "glsl" && lang != "cpp")
+      return sendError(res, 400, "lang must be one of hlsl, glsl, cpp", "lang");
+    if (!loadRun(id, res)) return;
+    auto f = loadFront(id, res);
+    if (!f) return;
+    if (!memberOf(f->front, k, id, res)) return;
+#ifdef LGP_HAVE_EMIT
+    using lgp::emit::Language;
+    Language l = lang == "hlsl" ? Language::Hlsl : lang == "glsl" ? Language::Glsl : Language::Cpp;
+    lgp::emit::EmitOptions opts;
+    opts.source = "lgpd run " + id + " member " + std::to_string(k);
+    auto text = lgp::emit::emitFromFront(f->front, k, l, opts);
+    if (!text)
+      return sendError(res, 422, "cannot emit member " + std::to_string(k) + ": " + text.error());
+    res.status = 200;
+    res.set_content(*text, "text/plain; charset=utf-8");
+#else
+    sendError(res, 503, "code export is not available: this lgpd was built without lgp::emit");
+#endif
+  }
+
+  void residuals(const std::string& id, size_t k, const httplib::Request& req,
+                 httplib::Response& res) {
+    auto run = loadRun(id, res);
+    if (!run) return;
+    auto f = loadFront(id, res);
+    if (!f) return;
+    if (!memberOf(f->front, k, id, res)) return;
+    size_t max_rows = kDefaultResidualRows;
+    if (req.has_param("max_rows")) {
+      auto v = parseIndex(req.get_param_value("max_rows"));
+      if (!v || *v == 0)
+        return sendError(res, 400, "max_rows must be a positive integer", "max_rows");
+      max_rows = *v;
+    }
+    auto cfg = jobs_.config(*run);
+    if (!cfg) return sendError(res, 500, "stored config no longer parses: " + cfg.error());
+    auto table = jobs_.table(*run);
+    if (!table) return sendError(res, 500, "cannot load the run's table: " + table.error());
+    auto program = lgp::memberProgram(f->front, k);
+    if (!program) return sendError(res, 500, "cannot decode member: " + program.error());
+    const lgp::Table& t = **table;
+    int block = cfg->eval.block_size;
+    lgp::Dataset ds(t, block);
+    lgp::Interpreter interp(block);
+    auto out = interp.evaluate(*program, ds);
+
+    const size_t rows = t.rows();
+    const size_t stride = std::max<size_t>(1, (rows + max_rows - 1) / max_rows);
+    json columns = json::object();
+    for (size_t i = 0; i < t.numInputs(); ++i) {
+      json col = json::array();
+      for (size_t r = 0; r < rows; r += stride) col.push_back(t.inputs[i][r]);
+      columns[t.input_names[i]] = std::move(col);
+    }
+    json outputs = json::array();
+    for (size_t o = 0; o < t.numOutputs() && o < out.size(); ++o) {
+      auto tr = lgp::TargetTransform::None;
+      if (auto it = cfg->data.transforms.find(t.output_names[o]); it != cfg->data.transforms.end())
+        tr = it->second;
+      json resid = json::array();
+      double sum2 = 0, max_abs = 0;
+      size_t n = 0;
+      for (size_t r = 0; r < rows; ++r) {
+        double pred = lgp::invertTransform(tr, static_cast<double>(out[o][r]));
+        double e = pred - t.outputs[o][r];
+        if (std::isfinite(e)) {
+          sum2 += e * e;
+          max_abs = std::max(max_abs, std::abs(e));
+          ++n;
+        }
+        if (r % stride == 0) resid.push_back(numberOrNull(e));
+      }
+      outputs.push_back({{"name", t.output_names[o]},
+                         {"transform", std::string(lgp::toString(tr))},
+                         {"rmse", n ? json(std::sqrt(sum2 / n)) : json(nullptr)},
+                         {"max_abs", n ? json(max_abs) : json(nullptr)},
+                         {"residual", std::move(resid)}});
+    }
+    sendJson(res, 200,
+             {{"id", id},
+              {"member", k},
+              {"rows", rows},
+              {"stride", stride},
+              {"precision", "float32 interpreter"},
+              {"definition", "signed error = prediction - target, original scale"},
+              {"inputs", t.input_names},
+              {"columns", std::move(columns)},
+              {"outputs", std::move(outputs)}});
+  }
+
+  Store& store_;
+  JobManager& jobs_;
+  std::string token_;
+};
+
+}  // namespace
+
+void installApi(httplib::Server& server, Store& store, JobManager& jobs) {
+  // The Api object lives as long as the process (handlers capture it).
+  static std::vector<std::unique_ptr<Api>> apis;
+  apis.push_back(std::make_unique<Api>(store, jobs));
+  apis.back()->install(server);
+}
+
+}  // namespace lgpd

@@ -1,0 +1,173 @@
+#include "daemon_config.hpp"
+
+#include <arpa/inet.h>
+
+#include <string_view>
+
+namespace lgpd {
+
+using lgp::Expected;
+using lgp::Status;
+
+Status DaemonConfig::validate() const {
+  if (data_dir.empty()) return Status::error("/data_dir: required (--data-dir)");
+  if (max_jobs < 1 || max_jobs > 256) return Status::error("/max_jobs: must be in [1, 256]");
+  if (!(checkpoint_interval_s > 0))
+    return Status::error("/checkpoint_interval_s: must be a number > 0");
+  if (!(progress_interval_s >= 0))
+    return Status::error("/progress_interval_s: must be a number >= 0");
+  if (!(front_interval_s >= 0)) return Status::error("/front_interval_s: must be a number >= 0");
+  if (max_body_bytes < 1024) return Status::error("/max_body_bytes: must be >= 1024");
+  if (http_threads < 2 || http_threads > 256)
+    return Status::error("/http_threads: must be in [2, 256]");
+  auto addr = parseListen(listen);
+  if (!addr) return Status::error("/listen: " + addr.error());
+  if (!isLoopbackHost(addr->host) && token.size() < 16)
+    return Status::error("/token: a non-loopback listen address (" + addr->host +
+                         ") requires a bearer token of at least 16 characters");
+  return Status::ok();
+}
+
+Expected<ListenAddress> parseListen(const std::string& s) {
+  ListenAddress a;
+  std::string port;
+  if (!s.empty() && s.front() == '[') {
+    auto close = s.find(']');
+    if (close == std::string::npos || close + 1 >= s.size() || s[close + 1] != ':')
+      return Status::error("expected [ipv6]:port, got '" + s + "'");
+    a.host = s.substr(1, close - 1);
+    port = s.substr(close + 2);
+  } else {
+    auto colon = s.rfind(':');
+    if (colon == std::string::npos || colon == 0)
+      return Status::error("expected host:port, got '" + s + "'");
+    a.host = s.substr(0, colon);
+    port = s.substr(colon + 1);
+  }
+  if (port.empty() || port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos)
+    return Status::error("bad port in '" + s + "'");
+  a.port = std::stoi(port);
+  if (a.port > 65535) return Status::error("port out of range in '" + s + "'");
+  return a;
+}
+
+bool isLoopbackHost(const std::string& host) {
+  if (host == "localhost") return true;
+  in_addr v4{};
+  if (inet_pton(AF_INET, host.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, host.c_str(), &v6) == 1) {
+    static const in6_addr kLoop = IN6ADDR_LOOPBACK_INIT;
+    return std::memcmp(&v6, &kLoop, sizeof v6) == 0;
+  }
+  return false;
+}
+
+namespace {
+
+template <class F>
+Status field(const nlohmann::json& j, const char* key, F&& assign) {
+  auto it = j.find(key);
+  if (it == j.end()) return Status::ok();
+  return assign(*it, std::string("/") + key);
+}
+
+Status number(const nlohmann::json& v, const std::string& path, double& out) {
+  if (!v.is_number()) return Status::error(path + ": must be a number");
+  out = v.get<double>();
+  return Status::ok();
+}
+
+Status integer(const nlohmann::json& v, const std::string& path, int64_t lo, int64_t& out) {
+  if (!v.is_number_integer() || v.get<int64_t>() < lo)
+    return Status::error(path + ": must be an integer >= " + std::to_string(lo));
+  out = v.get<int64_t>();
+  return Status::ok();
+}
+
+Status string(const nlohmann::json& v, const std::string& path, std::string& out) {
+  if (!v.is_string()) return Status::error(path + ": must be a string");
+  out = v.get<std::string>();
+  return Status::ok();
+}
+
+}  // namespace
+
+Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
+  if (!j.is_object()) return Status::error("/: the daemon config must be a JSON object");
+  static constexpr std::string_view kKeys[] = {"data_dir",
+                                               "listen",
+                                               "max_jobs",
+                                               "checkpoint_interval_s",
+                                               "progress_interval_s",
+                                               "front_interval_s",
+                                               "token",
+                                               "max_body_bytes",
+                                               "data_base_dir",
+                                               "allowed_data_dirs",
+                                               "http_threads"};
+  for (const auto& [k, v] : j.items()) {
+    bool known = false;
+    for (auto kk : kKeys) known = known || kk == k;
+    if (!known) return Status::error("/" + k + ": unknown key");
+  }
+  Status s;
+  std::string str;
+  int64_t i = 0;
+  if (!(s = field(j, "data_dir", [&](auto& v, auto p) {
+          auto r = string(v, p, str);
+          if (r) cfg.data_dir = str;
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "listen", [&](auto& v, auto p) { return string(v, p, cfg.listen); })))
+    return s;
+  if (!(s = field(j, "max_jobs", [&](auto& v, auto p) {
+          auto r = integer(v, p, 1, i);
+          if (r) cfg.max_jobs = static_cast<int>(std::min<int64_t>(i, 1 << 20));
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "checkpoint_interval_s",
+                  [&](auto& v, auto p) { return number(v, p, cfg.checkpoint_interval_s); })))
+    return s;
+  if (!(s = field(j, "progress_interval_s",
+                  [&](auto& v, auto p) { return number(v, p, cfg.progress_interval_s); })))
+    return s;
+  if (!(s = field(j, "front_interval_s",
+                  [&](auto& v, auto p) { return number(v, p, cfg.front_interval_s); })))
+    return s;
+  if (!(s = field(j, "token", [&](auto& v, auto p) { return string(v, p, cfg.token); }))) return s;
+  if (!(s = field(j, "max_body_bytes", [&](auto& v, auto p) {
+          auto r = integer(v, p, 1024, i);
+          if (r) cfg.max_body_bytes = static_cast<size_t>(i);
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "data_base_dir", [&](auto& v, auto p) {
+          auto r = string(v, p, str);
+          if (r) cfg.data_base_dir = str;
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "allowed_data_dirs", [&](auto& v, auto p) {
+          if (!v.is_array()) return Status::error(p + ": must be an array of strings");
+          cfg.allowed_data_dirs.clear();
+          for (size_t n = 0; n < v.size(); ++n) {
+            if (!v[n].is_string())
+              return Status::error(p + "/" + std::to_string(n) + ": must be a string");
+            cfg.allowed_data_dirs.emplace_back(v[n].template get<std::string>());
+          }
+          return Status::ok();
+        })))
+    return s;
+  if (!(s = field(j, "http_threads", [&](auto& v, auto p) {
+          auto r = integer(v, p, 2, i);
+          if (r) cfg.http_threads = static_cast<int>(std::min<int64_t>(i, 1 << 20));
+          return r;
+        })))
+    return s;
+  return Status::ok();
+}
+
+}  // namespace lgpd

@@ -1,0 +1,49 @@
+// lgpd's own configuration (not a run config): where it listens, how many jobs run at once,
+// how often they checkpoint, and the safety limits of the HTTP API. Read from an optional
+// JSON file (--config) and overridden by command-line flags; see README.md for an example.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/status.hpp"
+
+namespace lgpd {
+
+struct DaemonConfig {
+  std::filesystem::path data_dir;         // SQLite database and materialised inline tables
+  std::string listen = "127.0.0.1:8737";  // host:port; port 0 picks a free port
+  int max_jobs = 1;                       // jobs running at once (each uses its config's threads)
+  double checkpoint_interval_s = 60;      // seconds between checkpoints of a running job (> 0)
+  double progress_interval_s = 1;         // seconds between progress rows (>= 0; 0 = every gen)
+  double front_interval_s = 10;           // seconds between live front snapshots (>= 0)
+  std::string token;                      // bearer token; required for a non-loopback listen
+  size_t max_body_bytes = 16u << 20;      // request bodies above this get 413
+  std::filesystem::path data_base_dir;    // relative data paths of submissions resolve here;
+                                          // empty = lgpd's working directory at start
+  std::vector<std::filesystem::path> allowed_data_dirs;  // if set, data files must be inside
+  int http_threads = 8;                                  // HTTP worker threads
+
+  // Checks every field; the message names the JSON key.
+  lgp::Status validate() const;
+};
+
+// "host:port" split; port must be 0..65535. IPv6 hosts are written in brackets: "[::1]:8737".
+struct ListenAddress {
+  std::string host;
+  int port = 0;
+};
+lgp::Expected<ListenAddress> parseListen(const std::string& s);
+// True for 127.0.0.0/8, ::1 and "localhost".
+bool isLoopbackHost(const std::string& host);
+
+// Applies the keys present in `j` over `cfg`; unknown keys and wrong types are errors that
+// name the key, e.g. "/max_jobs: must be an integer >= 1".
+lgp::Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg);
+
+}  // namespace lgpd

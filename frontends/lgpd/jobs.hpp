@@ -1,0 +1,103 @@
+// The job queue: runs up to `max_jobs` searches at once, one thread per running job.
+//
+// A job thread loads the table, builds an lgp::Search, restores the run's checkpoint if there
+// is one, then calls step() until done(). Every `checkpoint_interval_s` it writes the search
+// checkpoint, a front snapshot and the counters in one transaction; every
+// `progress_interval_s` it writes the counters and a history row; every `front_interval_s`
+// a live front snapshot. At the end the final front and the terminal status are written in
+// one transaction, so a finished front is never half-written.
+//
+// Cancel: requestStop() on the search; the generation in flight completes and the run ends
+// as "cancelled" with the front it had. Delete: as cancel, then every row of the run goes.
+// Shutdown (SIGINT/SIGTERM): each job checkpoints and stays "running", so the next lgpd
+// resumes it. After kill -9 the same happens from the last checkpoint.
+#pragma once
+
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "daemon_config.hpp"
+#include "lgp/config/config.hpp"
+#include "lgp/core/table.hpp"
+#include "store.hpp"
+
+namespace lgpd {
+
+// A submission turned into a stored run: the config is parsed and validated (errors name the
+// JSON path), data paths are made absolute, inline data is split off.
+struct PreparedRun {
+  RunRecord record;
+  lgp::RunConfig config;
+};
+
+class JobManager {
+ public:
+  JobManager(Store& store, DaemonConfig cfg);
+  ~JobManager();
+  JobManager(const JobManager&) = delete;
+  JobManager& operator=(const JobManager&) = delete;
+
+  // Resumes runs left "running" (and finalises those whose cancel was requested), purges
+  // materialised tables of deleted runs, and starts the scheduler.
+  lgp::Status start();
+  // Checkpoints and stops every job; they stay "running" in the store. Idempotent.
+  void shutdown();
+
+  // Validates a submission (the body of POST /api/v1/runs) and turns it into a run record.
+  // The error names the JSON path.
+  lgp::Expected<PreparedRun> prepare(const nlohmann::json& submission) const;
+  // Stores a prepared run as queued and wakes the scheduler. Returns the id.
+  lgp::Expected<std::string> submit(PreparedRun run);
+
+  // False when the run is not active (then the store is authoritative).
+  bool cancel(const std::string& id);
+  // Deletes a run: stops it if active, then removes every row. False if unknown.
+  lgp::Expected<bool> remove(const std::string& id);
+  bool isActive(const std::string& id) const;
+
+  // The table of a run (cached; for residuals). Thread-safe.
+  lgp::Expected<std::shared_ptr<const lgp::Table>> table(const RunRecord& run);
+  // The parsed config of a stored run.
+  lgp::Expected<lgp::RunConfig> config(const RunRecord& run) const;
+
+  const DaemonConfig& daemonConfig() const { return cfg_; }
+
+ private:
+  struct Job;
+  void schedulerLoop();
+  void launch(const std::string& id, bool resume);
+  void runJob(Job& job);
+  lgp::Status resolveInlineTable(const RunRecord& run) const;
+  std::filesystem::path inlineTablePath(const std::string& id) const;
+  lgp::Status checkDataPath(const std::filesystem::path& p) const;
+
+  Store& store_;
+  DaemonConfig cfg_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::map<std::string, std::unique_ptr<Job>> jobs_;  // active jobs
+  bool stopping_ = false;
+  bool started_ = false;
+  std::thread scheduler_;
+
+  std::mutex table_mutex_;
+  std::map<std::string, std::shared_ptr<const lgp::Table>> tables_;  // small cache
+  std::vector<std::string> table_order_;
+};
+
+// Run ids: 16 lowercase hex digits from a random source. isValidRunId accepts exactly that
+// shape, so ids never carry path or SQL syntax.
+std::string newRunId();
+bool isValidRunId(const std::string& id);
+
+// {"error":..,"cost":..,"discontinuity":..}: the best value of each objective over a front.
+nlohmann::json bestPerObjective(const nlohmann::json& front);
+
+}  // namespace lgpd

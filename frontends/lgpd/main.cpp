@@ -1,0 +1,158 @@
+// lgpd: runs lgp searches overnight from JSON configs, with durable SQLite checkpoints, an
+// HTTP JSON API and a Pareto-front inspection page (README.md in this folder).
+//
+//   lgpd --data-dir DIR [--listen 127.0.0.1:8737] [--config lgpd.json] [--jobs N]
+//        [--checkpoint-interval S] [--port-file FILE]
+//
+// SIGINT/SIGTERM: the server stops, every running job checkpoints and stays "running", and
+// the next lgpd resumes it. After a kill -9 the next lgpd resumes from the last checkpoint.
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <thread>
+
+#include <httplib.h>
+#include <pthread.h>
+#include <spdlog/spdlog.h>
+#include <cxxopts.hpp>
+
+#include "api.hpp"
+#include "daemon_config.hpp"
+#include "jobs.hpp"
+#include "store.hpp"
+
+namespace {
+
+int run(int argc, char** argv) {
+  cxxopts::Options opts("lgpd", "lgp search daemon: job queue, HTTP API and inspection page");
+  // clang-format off
+  opts.add_options()
+    ("data-dir", "directory for the SQLite state (created if missing)", cxxopts::value<std::string>())
+    ("listen", "host:port to bind (port 0 = any free port)", cxxopts::value<std::string>())
+    ("config", "daemon config JSON (see README.md); flags override it", cxxopts::value<std::string>())
+    ("jobs", "jobs running at once", cxxopts::value<int>())
+    ("checkpoint-interval", "seconds between checkpoints of a running job", cxxopts::value<double>())
+    ("progress-interval", "seconds between progress rows", cxxopts::value<double>())
+    ("front-interval", "seconds between live front snapshots", cxxopts::value<double>())
+    ("port-file", "write the bound port to this file once listening", cxxopts::value<std::string>())
+    ("log-level", "trace|debug|info|warn|error", cxxopts::value<std::string>()->default_value("info"))
+    ("h,help", "this help");
+  // clang-format on
+  auto args = opts.parse(argc, argv);
+  if (args.count("help")) {
+    std::printf("%s\n", opts.help().c_str());
+    return 0;
+  }
+  spdlog::set_level(spdlog::level::from_str(args["log-level"].as<std::string>()));
+
+  lgpd::DaemonConfig cfg;
+  if (args.count("config")) {
+    std::ifstream f(args["config"].as<std::string>());
+    if (!f) {
+      std::fprintf(stderr, "error: cannot read %s\n", args["config"].as<std::string>().c_str());
+      return 2;
+    }
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(f);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: %s: %s\n", args["config"].as<std::string>().c_str(), e.what());
+      return 2;
+    }
+    if (auto s = lgpd::applyDaemonConfigJson(j, cfg); !s) {
+      std::fprintf(stderr, "error: %s: %s\n", args["config"].as<std::string>().c_str(),
+                   s.message().c_str());
+      return 2;
+    }
+  }
+  if (args.count("data-dir")) cfg.data_dir = args["data-dir"].as<std::string>();
+  if (args.count("listen")) cfg.listen = args["listen"].as<std::string>();
+  if (args.count("jobs")) cfg.max_jobs = args["jobs"].as<int>();
+  if (args.count("checkpoint-interval"))
+    cfg.checkpoint_interval_s = args["checkpoint-interval"].as<double>();
+  if (args.count("progress-interval"))
+    cfg.progress_interval_s = args["progress-interval"].as<double>();
+  if (args.count("front-interval")) cfg.front_interval_s = args["front-interval"].as<double>();
+  if (auto s = cfg.validate(); !s) {
+    std::fprintf(stderr, "error: %s\n", s.message().c_str());
+    return 2;
+  }
+  auto addr = lgpd::parseListen(cfg.listen);
+
+  // Signals are taken by one thread with sigwait; every other thread has them blocked.
+  sigset_t sigs;
+  sigemptyset(&sigs);
+  sigaddset(&sigs, SIGINT);
+  sigaddset(&sigs, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+
+  auto store = lgpd::Store::open(cfg.data_dir);
+  if (!store) {
+    std::fprintf(stderr, "error: %s\n", store.error().c_str());
+    return 1;
+  }
+  spdlog::info("state in {}", (*store)->path().string());
+
+  lgpd::JobManager jobs(**store, cfg);
+  httplib::Server server;
+  const int http_threads = cfg.http_threads;
+  server.new_task_queue = [http_threads] { return new httplib::ThreadPool(http_threads); };
+  lgpd::installApi(server, **store, jobs);
+
+  int port = addr->port;
+  if (port == 0) {
+    port = server.bind_to_any_port(addr->host);
+    if (port < 0) port = 0;
+  } else if (!server.bind_to_port(addr->host, port)) {
+    port = 0;
+  }
+  if (port == 0) {
+    std::fprintf(stderr, "error: cannot listen on %s\n", cfg.listen.c_str());
+    return 1;
+  }
+  if (auto s = jobs.start(); !s) {
+    std::fprintf(stderr, "error: %s\n", s.message().c_str());
+    return 1;
+  }
+  if (args.count("port-file")) {
+    // Written via rename so a reader never sees a partial number.
+    std::string path = args["port-file"].as<std::string>();
+    {
+      std::ofstream f(path + ".tmp");
+      f << port << "\n";
+    }
+    std::rename((path + ".tmp").c_str(), path.c_str());
+  }
+  spdlog::info("listening on http://{}:{} ({} job slot(s), checkpoint every {} s{})",
+               addr->host.find(':') != std::string::npos ? "[" + addr->host + "]" : addr->host,
+               port, cfg.max_jobs, cfg.checkpoint_interval_s,
+               cfg.token.empty() ? "" : ", bearer token required");
+
+  std::thread signals([&server, sigs] {
+    int sig = 0;
+    sigwait(&sigs, &sig);
+    spdlog::info("signal {}: stopping", sig);
+    server.stop();
+  });
+  server.listen_after_bind();
+  // listen returned: either a signal or a failure. Make sure the signal thread ends too.
+  if (server.is_running()) server.stop();
+  pthread_kill(signals.native_handle(), SIGTERM);
+  signals.join();
+  spdlog::info("checkpointing running jobs");
+  jobs.shutdown();
+  spdlog::info("stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+}
