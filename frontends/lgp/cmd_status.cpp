@@ -51,16 +51,12 @@ int statusMain(int argc, char** argv) {
   const bool one = args.count("run") > 0;
   const std::string path =
       one ? "/api/v1/runs/" + args["run"].as<std::string>() : std::string("/api/v1/runs");
-  auto r = daemonRequest(url, "GET", path);
-  if (!r) {
-    std::fprintf(stderr, "error: %s\n", r.error().c_str());
+  auto got = daemonGetJson(url, path);
+  if (!got) {
+    std::fprintf(stderr, "error: %s\n", got.error().c_str());
     return 1;
   }
-  if (r->status != 200) {
-    std::fprintf(stderr, "error: %s (HTTP %d)\n", r->errorMessage().c_str(), r->status);
-    return 1;
-  }
-  json j = r->json();
+  json j = *got;
   if (args.count("json")) {
     std::printf("%s\n", j.dump(2).c_str());
     return 0;

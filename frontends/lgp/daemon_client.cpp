@@ -67,18 +67,22 @@ Expected<DaemonReply> daemonRequest(const std::string&, const std::string&, cons
 
 #endif
 
+Expected<nlohmann::json> daemonGetJson(const std::string& url, const std::string& path) {
+  auto r = daemonRequest(url, "GET", path);
+  if (!r) return r.status();
+  if (r->status != 200)
+    return Status::error(r->errorMessage() + " (HTTP " + std::to_string(r->status) + ")");
+  return r->json();
+}
+
 int daemonFront(const std::string& url, const std::string& run, const std::string& out_path,
                 bool json) {
-  auto r = daemonRequest(url, "GET", "/api/v1/runs/" + run + "/front");
-  if (!r) {
-    std::fprintf(stderr, "error: %s\n", r.error().c_str());
+  auto got = daemonGetJson(url, "/api/v1/runs/" + run + "/front");
+  if (!got) {
+    std::fprintf(stderr, "error: %s\n", got.error().c_str());
     return 1;
   }
-  if (r->status != 200) {
-    std::fprintf(stderr, "error: %s (HTTP %d)\n", r->errorMessage().c_str(), r->status);
-    return 1;
-  }
-  auto front = r->json();
+  auto front = *got;
   if (!front.is_object()) {
     std::fprintf(stderr, "error: the daemon's front is not JSON\n");
     return 1;

@@ -37,4 +37,7 @@ Expected<DaemonReply> daemonRequest(const std::string& url, const std::string& m
 int daemonFront(const std::string& url, const std::string& run, const std::string& out_path = "",
                 bool json = false);
 
+// GET `path` and expect 200 with a JSON body; the error names the daemon's reason and status.
+Expected<nlohmann::json> daemonGetJson(const std::string& url, const std::string& path);
+
 }  // namespace lgp::cli
