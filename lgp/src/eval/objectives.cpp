@@ -80,8 +80,12 @@ CostModel CostModel::preset(CostTarget t) {
 }
 
 double CostModel::programCost(const Program& p) const {
+  return programCost(p, effectiveIndices(p));
+}
+
+double CostModel::programCost(const Program& p, const std::vector<int>& effective) const {
   double c = 0;
-  for (int i : effectiveIndices(p)) c += cost[static_cast<int>(p.code[i].op)];
+  for (int i : effective) c += cost[static_cast<int>(p.code[i].op)];
   return c;
 }
 
@@ -112,8 +116,13 @@ DiscontinuityModel DiscontinuityModel::defaults() {
 }
 
 double DiscontinuityModel::programDiscontinuity(const Program& p) const {
+  return programDiscontinuity(p, effectiveIndices(p));
+}
+
+double DiscontinuityModel::programDiscontinuity(const Program& p,
+                                                const std::vector<int>& effective) const {
   double d = 0;
-  for (int i : effectiveIndices(p)) d += weight[static_cast<int>(p.code[i].op)];
+  for (int i : effective) d += weight[static_cast<int>(p.code[i].op)];
   return d;
 }
 
@@ -140,6 +149,42 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
 
 namespace {
 using Acc = detail::ErrorAcc;
+
+// Every metric of one output from its sums over rows (r2 is left to the caller: it needs the
+// total sum of squares).
+OutputMetrics metricsFromAcc(const Acc& a, double weight_sum) {
+  OutputMetrics m;
+  m.rmse = std::sqrt(a.sse / weight_sum);
+  m.max_abs = a.maxabs;
+  m.mae = a.sae / weight_sum;
+  m.mean_rel = a.srel / weight_sum;
+  return m;
+}
+
+double pickMetric(const OutputMetrics& m, ErrorMetric metric) {
+  switch (metric) {
+    case ErrorMetric::Rmse:
+      return m.rmse;
+    case ErrorMetric::MaxAbs:
+      return m.max_abs;
+    case ErrorMetric::Mae:
+      return m.mae;
+    case ErrorMetric::MeanRel:
+      return m.mean_rel;
+  }
+  return m.rmse;
+}
+
+// Combines per-output errors; a non-finite one makes the whole error +inf.
+double combineValues(const std::vector<double>& errors, OutputCombine combine) {
+  double combined = 0;
+  for (double e : errors) {
+    if (!std::isfinite(e)) return std::numeric_limits<double>::infinity();
+    combined = combine == OutputCombine::Max ? std::max(combined, e) : combined + e;
+  }
+  if (combine == OutputCombine::Mean && !errors.empty()) combined /= errors.size();
+  return combined;
+}
 
 // Accumulates the metrics selected by M over one block. M < 0 computes all of them.
 template <int M>
@@ -211,31 +256,12 @@ double Scorer::error(const BoundProgram& bp) {
       run<3>(bp, acc_);
       break;
   }
-  const double inf = std::numeric_limits<double>::infinity();
-  const double ws = ds_.weightSum();
-  double combined = 0;
+  errors_.clear();
   for (const detail::ErrorAcc& a : acc_) {
-    if (!(a.chk == 0.0f)) return inf;
-    double e = 0;
-    switch (cfg_.metric) {
-      case ErrorMetric::Rmse:
-        e = std::sqrt(a.sse / ws);
-        break;
-      case ErrorMetric::MaxAbs:
-        e = a.maxabs;
-        break;
-      case ErrorMetric::Mae:
-        e = a.sae / ws;
-        break;
-      case ErrorMetric::MeanRel:
-        e = a.srel / ws;
-        break;
-    }
-    if (!std::isfinite(e)) return inf;
-    combined = cfg_.combine == OutputCombine::Max ? std::max(combined, e) : combined + e;
+    if (!(a.chk == 0.0f)) return std::numeric_limits<double>::infinity();
+    errors_.push_back(pickMetric(metricsFromAcc(a, ds_.weightSum()), cfg_.metric));
   }
-  if (cfg_.combine == OutputCombine::Mean && !acc_.empty()) combined /= acc_.size();
-  return combined;
+  return combineValues(errors_, cfg_.combine);
 }
 
 std::vector<OutputMetrics> Scorer::metrics(const Program& p) {
@@ -246,10 +272,7 @@ std::vector<OutputMetrics> Scorer::metrics(const Program& p) {
   for (size_t o = 0; o < acc_.size(); ++o) {
     const detail::ErrorAcc& a = acc_[o];
     if (!(a.chk == 0.0f)) continue;  // stays at the worst values
-    out[o].rmse = std::sqrt(a.sse / ws);
-    out[o].max_abs = a.maxabs;
-    out[o].mae = a.sae / ws;
-    out[o].mean_rel = a.srel / ws;
+    out[o] = metricsFromAcc(a, ws);
     out[o].r2 = ss_tot_[o] > 0 ? 1.0 - a.sse / ss_tot_[o] : (a.sse == 0 ? 1.0 : 0.0);
   }
   return out;
@@ -295,28 +318,9 @@ std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& t,
 }
 
 double combineError(const std::vector<OutputMetrics>& m, const ErrorConfig& cfg) {
-  double combined = 0;
-  for (const auto& om : m) {
-    double e = 0;
-    switch (cfg.metric) {
-      case ErrorMetric::Rmse:
-        e = om.rmse;
-        break;
-      case ErrorMetric::MaxAbs:
-        e = om.max_abs;
-        break;
-      case ErrorMetric::Mae:
-        e = om.mae;
-        break;
-      case ErrorMetric::MeanRel:
-        e = om.mean_rel;
-        break;
-    }
-    if (!std::isfinite(e)) return std::numeric_limits<double>::infinity();
-    combined = cfg.combine == OutputCombine::Max ? std::max(combined, e) : combined + e;
-  }
-  if (cfg.combine == OutputCombine::Mean && !m.empty()) combined /= m.size();
-  return combined;
+  std::vector<double> errors;
+  for (const auto& om : m) errors.push_back(pickMetric(om, cfg.metric));
+  return combineValues(errors, cfg.combine);
 }
 
 }  // namespace lgp

@@ -81,8 +81,9 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   Objectives o;
   o.error = s.error(p);
   if (!std::isfinite(o.error)) o.error = kInf;
-  o.cost = cost_.programCost(p) + transform_cost_;
-  o.discontinuity = disc_.programDiscontinuity(p);
+  const auto effective = effectiveIndices(p);
+  o.cost = cost_.programCost(p, effective) + transform_cost_;
+  o.discontinuity = disc_.programDiscontinuity(p, effective);
   return o;
 }
 

@@ -46,6 +46,8 @@ struct CostModel {
   std::array<double, kNumOps> cost{};
   static CostModel preset(CostTarget t);
   double programCost(const Program& p) const;  // effective opcodes only
+  // The same, given effectiveIndices(p) (callers that need them anyway compute them once).
+  double programCost(const Program& p, const std::vector<int>& effective) const;
   // Cost of the inverse transforms the emitted code appends (log -> exp, sqrt -> square,
   // rcp -> rcp), added to every member's cost so fronts stay honest.
   double transformCost(const std::vector<TargetTransform>& t) const;
@@ -55,6 +57,7 @@ struct DiscontinuityModel {
   std::array<double, kNumOps> weight{};  // default: 1 for piecewise ops, 0 otherwise
   static DiscontinuityModel defaults();
   double programDiscontinuity(const Program& p) const;
+  double programDiscontinuity(const Program& p, const std::vector<int>& effective) const;
 };
 
 struct ErrorConfig {
@@ -110,6 +113,7 @@ class Scorer {
   std::vector<detail::ErrorAcc> acc_;  // per-output accumulators, reused
   std::vector<float> pred_;            // inverse-transformed predictions of one block
   std::vector<double> ss_tot_;         // weighted total sum of squares per output (for R^2)
+  std::vector<double> errors_;         // per-output errors of the last error() call, reused
 };
 
 // Metrics in double precision via the reference evaluator (the "double check path").
