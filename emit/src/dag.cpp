@@ -733,30 +733,6 @@ Dag simplify(const Dag& d, const SimplifyOptions& opts) {
 // ---------------------------------------------------------------------------------------
 // Infix, costs
 
-namespace {
-std::string applyTemplate(std::string_view t, const std::vector<std::string>& a) {
-  std::string s;
-  for (size_t i = 0; i < t.size(); ++i) {
-    if (t[i] == '{' && i + 2 < t.size() && t[i + 2] == '}' && t[i + 1] >= '0' && t[i + 1] <= '3') {
-      s += a[t[i + 1] - '0'];
-      i += 2;
-    } else {
-      s += t[i];
-    }
-  }
-  return s;
-}
-
-std::string formatDouble(double v) {
-  char buf[64];
-  for (int prec = 1; prec <= 17; ++prec) {
-    std::snprintf(buf, sizeof buf, "%.*g", prec, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-}  // namespace
-
 std::vector<std::string> dagInfix(const Dag& d, const std::vector<std::string>& input_names) {
   const auto uses = d.useCounts();
   std::vector<std::string> name(d.nodes.size());
@@ -777,7 +753,7 @@ std::vector<std::string> dagInfix(const Dag& d, const std::vector<std::string>& 
     if (!name[id].empty()) return name[id];
     std::vector<std::string> a(kMaxArity);
     for (int k = 0; k < arity(n.op); ++k) a[k] = render(n.args[k]);
-    std::string e = applyTemplate(opInfo(n.op).infix, a);
+    std::string e = fillOpTemplate(opInfo(n.op).infix, a);
     if (uses[id] > 1) {
       // Bind in front of the current output: the name stays valid for later outputs.
       std::string nm;

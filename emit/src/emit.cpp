@@ -19,6 +19,7 @@ namespace lgp::emit {
 using detail::Ctx;
 using detail::Helper;
 using detail::HelperSet;
+using detail::replaceAll;
 
 std::string_view toString(Language l) {
   switch (l) {
@@ -105,15 +106,6 @@ int placeholderCount(std::string_view t, int k) {
   int n = 0;
   for (size_t p = t.find(ph); p != std::string_view::npos; p = t.find(ph, p + 1)) ++n;
   return n;
-}
-
-std::string replaceAll(std::string s, std::string_view from, const std::string& to) {
-  size_t pos = 0;
-  while ((pos = s.find(from, pos)) != std::string::npos) {
-    s.replace(pos, from.size(), to);
-    pos += to.size();
-  }
-  return s;
 }
 
 std::string fmtMetric(double v) {

@@ -24,17 +24,6 @@ std::string scalarType(const Ctx& c) {
   return "float";
 }
 
-namespace {
-std::string shortestDouble(double v) {
-  char buf[64];
-  for (int prec = 1; prec <= 17; ++prec) {
-    std::snprintf(buf, sizeof buf, "%.*g", prec, v);
-    if (std::strtod(buf, nullptr) == v) break;
-  }
-  return buf;
-}
-}  // namespace
-
 std::string literal(double v, const Ctx& c) {
   std::string s;
   switch (c.prec) {
@@ -45,7 +34,7 @@ std::string literal(double v, const Ctx& c) {
       s = formatFloat(roundToHalf(static_cast<float>(v)));
       break;
     case Precision::Double:
-      s = shortestDouble(v);
+      s = formatDouble(v);
       break;
   }
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
@@ -134,6 +123,15 @@ void addWithDeps(HelperSet& set, Helper h, const Ctx& c) {
   }
 }
 
+std::string replaceAll(std::string s, std::string_view from, const std::string& to) {
+  size_t pos = 0;
+  while ((pos = s.find(from, pos)) != std::string::npos) {
+    s.replace(pos, from.size(), to);
+    pos += to.size();
+  }
+  return s;
+}
+
 namespace {
 
 // Verbatim copy of lgp/include/lgp/eval/vecmath.hpp (same literals, same operation order);
@@ -212,15 +210,6 @@ inline float lgp_vm_cos(float x) { return lgp_vm_sincos(x, 1); }
 
 std::string upper(std::string s) {
   for (char& ch : s) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-  return s;
-}
-
-std::string replaceAll(std::string s, std::string_view from, const std::string& to) {
-  size_t pos = 0;
-  while ((pos = s.find(from, pos)) != std::string::npos) {
-    s.replace(pos, from.size(), to);
-    pos += to.size();
-  }
   return s;
 }
 

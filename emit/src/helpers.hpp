@@ -42,6 +42,8 @@ std::string literal(double v, const Ctx& c);
 // Names of the math primitives: "std::exp2", "lgp_vm_exp2" or "exp2", ...
 std::string primitive(std::string_view fn, const Ctx& c);
 std::string helperName(Helper h);
+// Replaces every occurrence of `from` in `s`.
+std::string replaceAll(std::string s, std::string_view from, const std::string& to);
 // Adds the helpers `h` depends on.
 void addWithDeps(HelperSet& set, Helper h, const Ctx& c);
 // The definitions of every helper in `set`, in dependency order, each behind an #ifndef.

@@ -2,6 +2,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -137,24 +139,16 @@ std::string formatFloat(float v) {
   return std::string(buf, res.ptr);
 }
 
-namespace {
-
-std::string substitute(std::string_view tmpl, const std::vector<std::string>& args) {
-  std::string out;
-  out.reserve(tmpl.size() + 16);
-  for (size_t i = 0; i < tmpl.size(); ++i) {
-    if (tmpl[i] == '{' && i + 2 < tmpl.size() && tmpl[i + 2] == '}') {
-      const int k = tmpl[i + 1] - '0';
-      if (k >= 0 && k < static_cast<int>(args.size())) {
-        out += args[k];
-        i += 2;
-        continue;
-      }
-    }
-    out += tmpl[i];
+std::string formatDouble(double v) {
+  char buf[64];
+  for (int prec = 1; prec <= 17; ++prec) {
+    std::snprintf(buf, sizeof buf, "%.*g", prec, v);
+    if (std::strtod(buf, nullptr) == v) break;
   }
-  return out;
+  return buf;
 }
+
+namespace {
 
 std::string operandText(const Program& p, const Operand& o,
                         const std::vector<std::string>& input_names,
@@ -202,7 +196,7 @@ std::vector<std::string> toInfix(const Program& p, const std::vector<std::string
       std::vector<std::string> args;
       for (int a = 0; a < arity(ins.op); ++a)
         args.push_back(operandText(p, ins.args[a], input_names, expr));
-      std::string e = substitute(opInfo(ins.op).infix, args);
+      std::string e = fillOpTemplate(opInfo(ins.op).infix, args);
       if (uses[i] > 1 && i != out) {
         bound_name[i] = "t" + std::to_string(i);
         lets += bound_name[i] + " = " + e + "; ";

@@ -26,6 +26,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace lgp {
 
@@ -138,6 +139,8 @@ constexpr const std::array<OpInfo, kNumOps>& allOps() {
 }
 
 std::optional<Op> opFromString(std::string_view name);
+// Fills a spelling template of the table: each {k} becomes args[k].
+std::string fillOpTemplate(std::string_view tmpl, const std::vector<std::string>& args);
 std::optional<CostTarget> costTargetFromString(std::string_view name);
 inline std::string_view toString(CostTarget t) {
   return kCostTargetNames[static_cast<int>(t)];

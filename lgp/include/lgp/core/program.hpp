@@ -29,9 +29,15 @@ struct Operand {
 };
 
 // Operand constructors, for building programs by hand (tests, parsers, examples).
-constexpr Operand inputOperand(int i) { return {OperandKind::Var, static_cast<uint8_t>(i)}; }
-constexpr Operand constOperand(int i) { return {OperandKind::Const, static_cast<uint8_t>(i)}; }
-constexpr Operand regOperand(int i) { return {OperandKind::Reg, static_cast<uint8_t>(i)}; }
+constexpr Operand inputOperand(int i) {
+  return {OperandKind::Var, static_cast<uint8_t>(i)};
+}
+constexpr Operand constOperand(int i) {
+  return {OperandKind::Const, static_cast<uint8_t>(i)};
+}
+constexpr Operand regOperand(int i) {
+  return {OperandKind::Reg, static_cast<uint8_t>(i)};
+}
 
 struct Instr {
   Op op = Op::Add;
@@ -85,6 +91,8 @@ std::vector<std::string> toInfix(const Program& p, const std::vector<std::string
 
 // Shortest decimal string that reads back as the same float.
 std::string formatFloat(float v);
+// Shortest %g string that reads back as the same double.
+std::string formatDouble(double v);
 
 // Compact, readable encoding: {"code": [["mad","x0","c1","r0"], ...], "constants": [...],
 // "outputs": [...]}. Operands: xI input, cI constant slot, rI earlier opcode.
