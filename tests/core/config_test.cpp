@@ -1,6 +1,7 @@
 // Config validation names the JSON path; table loading names the file, row and column.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <filesystem>
 #include <fstream>
 
@@ -97,7 +98,9 @@ TEST(Config, OverridesAndTransformsApply) {
 
 class TableFiles : public ::testing::Test {
  protected:
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "lgp_table_test";
+  // One directory per process: CTest runs these tests in parallel processes.
+  std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("lgp_table_test_" + std::to_string(getpid()));
   void SetUp() override { std::filesystem::create_directories(dir); }
   void TearDown() override { std::filesystem::remove_all(dir); }
   std::filesystem::path write(const std::string& name, const std::string& text) {

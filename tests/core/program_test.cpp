@@ -124,8 +124,8 @@ TEST_P(Variation, OperatorsAlwaysYieldValidPrograms) {
     ASSERT_TRUE(st) << "iteration " << it << ": " << st.message();
     // Canonical genome: unused operand slots are always Operand{} (checkpoints are exact).
     for (const auto& ins : c.code)
-      for (int a = arity(ins.op); a < kMaxArity; ++a)
-        ASSERT_EQ(ins.args[a], Operand{}) << "iteration " << it;
+      for (int slot = arity(ins.op); slot < kMaxArity; ++slot)
+        ASSERT_EQ(ins.args[slot], Operand{}) << "iteration " << it;
     pop[rng.below(50)] = std::move(c);
   }
 }
