@@ -7,6 +7,7 @@
 #include <cxxopts.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "daemon_client.hpp"
 
@@ -42,11 +43,9 @@ int statusMain(int argc, char** argv) {
   // clang-format on
   opts.parse_positional({"run"});
   opts.positional_help("[RUN]");
-  auto args = opts.parse(argc, argv);
-  if (args.count("help")) {
-    std::printf("%s\n", opts.help().c_str());
-    return 0;
-  }
+  auto parsed = parseArgs(opts, argc, argv, "", "");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const std::string url = daemonUrl(args["daemon"].as<std::string>());
   const bool one = args.count("run") > 0;
   const std::string path =

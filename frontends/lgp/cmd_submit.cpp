@@ -13,6 +13,7 @@
 #include <cxxopts.hpp>
 #include <nlohmann/json.hpp>
 
+#include "cli_args.hpp"
 #include "commands.hpp"
 #include "daemon_client.hpp"
 #include "lgp/core/table.hpp"
@@ -50,11 +51,9 @@ int submitMain(int argc, char** argv) {
   // clang-format on
   opts.parse_positional({"config"});
   opts.positional_help("cfg.json");
-  auto args = opts.parse(argc, argv);
-  if (args.count("help") || !args.count("config")) {
-    std::printf("%s\n", opts.help().c_str());
-    return args.count("help") ? 0 : 2;
-  }
+  auto parsed = parseArgs(opts, argc, argv, "config", "no config given");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const fs::path cfg_path = args["config"].as<std::string>();
   std::ifstream f(cfg_path);
   if (!f) {
