@@ -42,6 +42,7 @@
 #include <utility>
 #include <vector>
 
+#include "bench_util.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/eval/interpreter.hpp"
@@ -282,12 +283,6 @@ double seconds(std::chrono::steady_clock::time_point a, std::chrono::steady_cloc
 
 // CPU time of the calling thread: unlike wall time it does not count the time the thread
 // spends descheduled, so on a shared, loaded machine it estimates the unloaded run time.
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
 // Median seconds per pass of fn(passes) over g_opt.reps repetitions, each calibrated to take
 // about g_opt.min_ms (passes per repetition fixed after a warm-up). fn runs all its passes in
 // one go, so a multi-threaded fn forks once per repetition and needs no barrier between
@@ -296,9 +291,9 @@ double threadCpuSeconds() {
 double medianSeconds(const std::function<double(int)>& fn) {
   auto once = [&](int passes) {
     const auto w0 = std::chrono::steady_clock::now();
-    const double c0 = threadCpuSeconds();
+    const double c0 = lgp::bench::threadCpuSeconds();
     double cpu = fn(passes);
-    const double c1 = threadCpuSeconds();
+    const double c1 = lgp::bench::threadCpuSeconds();
     const double wall = seconds(w0, std::chrono::steady_clock::now());
     if (cpu < 0) cpu = c1 - c0;
     return g_opt.cpu_clock ? cpu : wall;
@@ -325,7 +320,7 @@ double interpretAll(const lgp::BoundProgram& bp, const lgp::Dataset& ds,
   double cpu = 0;
 #pragma omp parallel num_threads(threads) if (threads > 1) reduction(max : cpu)
   {
-    const double c0 = threadCpuSeconds();
+    const double c0 = lgp::bench::threadCpuSeconds();
     lgp::Interpreter& in = interps[omp_get_thread_num()];
     for (int p = 0; p < passes; ++p) {
 #pragma omp for schedule(static) nowait
@@ -335,7 +330,7 @@ double interpretAll(const lgp::BoundProgram& bp, const lgp::Dataset& ds,
       }
       benchmark::ClobberMemory();
     }
-    cpu = threadCpuSeconds() - c0;
+    cpu = lgp::bench::threadCpuSeconds() - c0;
   }
   return cpu;
 }
@@ -347,7 +342,7 @@ double compiledAll(CompiledFn fn, const lgp::Dataset& ds, float* out, int thread
   double cpu = 0;
 #pragma omp parallel num_threads(threads) if (threads > 1) reduction(max : cpu)
   {
-    const double c0 = threadCpuSeconds();
+    const double c0 = lgp::bench::threadCpuSeconds();
     for (int p = 0; p < passes; ++p) {
       if (threads == 1) {
         fn(ds.input(0), ds.input(1), out, n);
@@ -361,7 +356,7 @@ double compiledAll(CompiledFn fn, const lgp::Dataset& ds, float* out, int thread
       benchmark::DoNotOptimize(out);
       benchmark::ClobberMemory();
     }
-    cpu = threadCpuSeconds() - c0;
+    cpu = lgp::bench::threadCpuSeconds() - c0;
   }
   return cpu;
 }
@@ -508,13 +503,7 @@ void perOpTable() {
 void parseArgs(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto next = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
+    auto next = [&] { return lgp::bench::optionValue(argc, argv, i); };
     if (a == "--rows")
       g_opt.rows = std::strtoull(next(), nullptr, 10);
     else if (a == "--reps")

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/search/pareto.hpp"
@@ -79,12 +80,6 @@ lgp::RunConfig makeConfig(int threads) {
 // so with 1 thread on a loaded, shared machine it estimates the unloaded run time. With N
 // threads it counts spinning while a descheduled partner finishes (pessimistic) but not
 // sleeping waits under OMP_WAIT_POLICY=passive (optimistic).
-double threadCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
 struct RunResult {
   double init_s = 0, run_s = 0;      // wall: generation 0 (random population); generations 1..G
   double init_cpu = 0, run_cpu = 0;  // the same, master-thread CPU time
@@ -97,14 +92,14 @@ RunResult runOnce(const lgp::Table& table, int threads) {
   lgp::Search search(makeConfig(threads), table);
   RunResult r;
   const auto t0 = std::chrono::steady_clock::now();
-  const double c0 = threadCpuSeconds();
+  const double c0 = lgp::bench::threadCpuSeconds();
   search.initialize();
   const auto t1 = std::chrono::steady_clock::now();
-  const double c1 = threadCpuSeconds();
+  const double c1 = lgp::bench::threadCpuSeconds();
   r.init_evals = search.progress().evaluations;
   search.run();
   const auto t2 = std::chrono::steady_clock::now();
-  const double c2 = threadCpuSeconds();
+  const double c2 = lgp::bench::threadCpuSeconds();
   const auto p = search.progress();
   benchmark::DoNotOptimize(p.best_error);
   r.init_s = std::chrono::duration<double>(t1 - t0).count();
@@ -183,9 +178,9 @@ void rankingBench(const lgp::Table& table) {
   std::vector<double> t;
   std::vector<int> ranks;
   for (int rep = 0; rep < 7; ++rep) {
-    const double c0 = threadCpuSeconds();
+    const double c0 = lgp::bench::threadCpuSeconds();
     for (int k = 0; k < 20; ++k) benchmark::DoNotOptimize(ranks = lgp::nondominatedRanks(pool));
-    t.push_back((threadCpuSeconds() - c0) / 20);
+    t.push_back((lgp::bench::threadCpuSeconds() - c0) / 20);
   }
   std::sort(t.begin(), t.end());
   std::printf("\n== non-dominated sorting alone (%zu individuals, %d fronts; thread CPU time) ==\n",
@@ -196,13 +191,7 @@ void rankingBench(const lgp::Table& table) {
 void parseArgs(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    auto next = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
+    auto next = [&] { return lgp::bench::optionValue(argc, argv, i); };
     if (a == "--generations")
       g_opt.generations = std::atoi(next());
     else if (a == "--population")
