@@ -1,6 +1,4 @@
 // `lgp <command> [args]`: dispatches to the registered subcommands (see commands.hpp).
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -8,6 +6,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "omp_env.hpp"
 
 namespace {
 void usage(FILE* f) {
@@ -19,14 +18,7 @@ void usage(FILE* f) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // Each generation runs a few short parallel regions; libgomp's default spin-waiting makes
-  // threads burn their partners' time slices on a shared machine (measured 4.8x slower with 2
-  // threads under load). libgomp reads the policy when it loads, before main, so set it and
-  // re-execute once. An explicit OMP_WAIT_POLICY from the user is respected.
-  if (!std::getenv("OMP_WAIT_POLICY")) {
-    setenv("OMP_WAIT_POLICY", "passive", 1);
-    execv("/proc/self/exe", argv);  // on failure, just continue with the default policy
-  }
+  lgp::cli::ensurePassiveOpenMpWaits(argv);
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
     usage(argc < 2 ? stderr : stdout);
     return argc < 2 ? 2 : 0;

@@ -19,6 +19,7 @@
 #include "api.hpp"
 #include "daemon_config.hpp"
 #include "jobs.hpp"
+#include "omp_env.hpp"
 #include "store.hpp"
 
 namespace {
@@ -149,6 +150,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  lgp::cli::ensurePassiveOpenMpWaits(argv);  // jobs run searches: same reason as in `lgp`
   try {
     return run(argc, argv);
   } catch (const std::exception& e) {
