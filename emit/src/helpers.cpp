@@ -12,17 +12,7 @@
 
 namespace lgp::emit::detail {
 
-std::string scalarType(const Ctx& c) {
-  switch (c.prec) {
-    case Precision::Float:
-      return "float";
-    case Precision::Double:
-      return "double";
-    case Precision::Half:
-      return "half";
-  }
-  return "float";
-}
+std::string scalarType(const Ctx& c) { return std::string(toString(c.prec)); }
 
 std::string literal(double v, const Ctx& c) {
   std::string s;
