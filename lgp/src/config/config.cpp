@@ -1,5 +1,6 @@
 #include "lgp/config/config.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -7,6 +8,13 @@
 #include <sstream>
 
 namespace lgp {
+
+std::string_view toString(RefineMethod m) {
+  return m == RefineMethod::DeThenNm ? "de+nm" : "nm";
+}
+std::string_view toString(MultiOutputMode m) {
+  return m == MultiOutputMode::TwoStep ? "two_step" : "joint";
+}
 
 std::vector<Op> defaultOps() {
   std::vector<Op> ops;
@@ -82,6 +90,12 @@ class Obj {
       fail(path(k), os.str());
     }
     out = x;
+  }
+  void boolean(const std::string& k, bool& out) {
+    if (!has(k)) return;
+    const auto& v = at(k);
+    if (!v.is_boolean()) fail(path(k), "must be true or false (got " + typeName(v) + ")");
+    out = v.get<bool>();
   }
   void string(const std::string& k, std::string& out) {
     if (!has(k)) return;
@@ -211,6 +225,29 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
   o.enumeration("cost_model", c.cost_model, costTargetFromString, targets);
   c.cost_overrides = opNumberMap(o, "cost_overrides");
   c.discontinuity_weights = opNumberMap(o, "discontinuity_weights");
+  if (o.has("channels")) {
+    const auto& v = o.at("channels");
+    if (!v.is_array())
+      fail("/objectives/channels", "must be an array of {\"name\", \"weights\"} objects");
+    std::set<std::string> names;
+    for (size_t i = 0; i < v.size(); ++i) {
+      Obj ch(v[i], "/objectives/channels/" + std::to_string(i));
+      ChannelConfig cc;
+      ch.string("name", cc.name);
+      if (cc.name.empty()) fail(ch.path("name"), "must be a non-empty string");
+      if (!names.insert(cc.name).second)
+        fail(ch.path("name"), "duplicate channel '" + cc.name + "'");
+      if (!ch.has("weights") || !ch.at("weights").is_object() || ch.at("weights").empty())
+        fail(ch.path("weights"), "must be a non-empty object of output name -> weight");
+      for (auto it = ch.at("weights").begin(); it != ch.at("weights").end(); ++it) {
+        if (!it.value().is_number() || !std::isfinite(it.value().get<double>()))
+          fail(ch.path("weights") + "/" + it.key(), "must be a finite number");
+        cc.weights[it.key()] = it.value().get<double>();
+      }
+      ch.finish();
+      c.channels.push_back(std::move(cc));
+    }
+  }
   o.finish();
 }
 
@@ -224,7 +261,36 @@ void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
   o.integer("restarts", r.nm.restarts, 0, 1000);
   o.number("initial_step", r.nm.initial_step, 0, 1e6, true);
   o.number("tolerance", r.nm.tolerance, 0, 1);
+  if (o.has("method")) {
+    const auto& v = o.at("method");
+    if (v == "nm")
+      r.method = RefineMethod::NelderMead;
+    else if (v == "de+nm")
+      r.method = RefineMethod::DeThenNm;
+    else
+      fail("/search/refine/method", "must be \"nm\" or \"de+nm\" (got " + v.dump() + ")");
+  }
+  o.integer("de_evaluations", r.de_evaluations, 1, 1 << 30);
   o.finish();
+}
+
+void parseMultiOutput(const nlohmann::json& j, MultiOutputConfig& m) {
+  Obj o(j, "/search/multi_output");
+  if (o.has("mode")) {
+    const auto& v = o.at("mode");
+    if (v == "joint")
+      m.mode = MultiOutputMode::Joint;
+    else if (v == "two_step")
+      m.mode = MultiOutputMode::TwoStep;
+    else
+      fail("/search/multi_output/mode", "must be \"joint\" or \"two_step\" (got " + v.dump() + ")");
+  }
+  o.string("first", m.first);
+  o.number("first_share", m.first_share, 0, 1, true);
+  o.number("first_max_cost", m.first_max_cost, 0, 1e9);
+  o.finish();
+  if (m.first_share >= 1)
+    fail("/search/multi_output/first_share", "must be < 1 (the second step needs a budget)");
 }
 
 void parseArchive(const nlohmann::json& j, ArchiveConfig& a) {
@@ -257,6 +323,9 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   o.integer("threads", s.threads, 0, 4096);
   o.integer("tournament_size", s.tournament_size, 1, 64);
   o.number("error_bias", s.error_bias, 0, 1);
+  o.boolean("linear_scaling", s.linear_scaling);
+  o.boolean("seed_references", s.seed_references);
+  if (o.has("multi_output")) parseMultiOutput(o.at("multi_output"), s.multi_output);
   if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
   if (o.has("refine")) parseNm(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
@@ -312,6 +381,27 @@ Status RunConfig::validate() const {
   if (eval.block_size < 16 || eval.block_size % 16 != 0)
     return Status::error("/eval/block_size: must be a multiple of 16 in [16, 16384]");
   if (output.front_json.empty()) return Status::error("/output/front_json: must not be empty");
+  const auto isOutput = [&](const std::string& n) {
+    return std::find(data.outputs.begin(), data.outputs.end(), n) != data.outputs.end();
+  };
+  for (size_t i = 0; i < objectives.channels.size(); ++i) {
+    const std::string p = "/objectives/channels/" + std::to_string(i) + "/weights";
+    if (data.outputs.empty())
+      return Status::error(p + ": channels need the outputs listed in data.outputs");
+    for (const auto& [name, _] : objectives.channels[i].weights)
+      if (!isOutput(name)) return Status::error(p + "/" + name + ": not one of data.outputs");
+  }
+  if (search.multi_output.mode == MultiOutputMode::TwoStep) {
+    const std::string p = "/search/multi_output/first";
+    if (data.outputs.size() < 2)
+      return Status::error(p + ": two_step needs at least two outputs listed in data.outputs");
+    if (!isOutput(search.multi_output.first))
+      return Status::error(p + ": '" + search.multi_output.first + "' is not one of data.outputs");
+  }
+  if (search.linear_scaling && program.max_length + static_cast<int>(data.outputs.size()) > 255)
+    return Status::error(
+        "/program/max_length: linear scaling adds one opcode per output; "
+        "max_length + outputs must be <= 255");
   return Status::ok();
 }
 
@@ -347,6 +437,14 @@ ErrorConfig RunConfig::errorConfig(const std::vector<std::string>& output_names)
   for (const auto& n : output_names) {
     auto it = data.transforms.find(n);
     e.transforms.push_back(it == data.transforms.end() ? TargetTransform::None : it->second);
+  }
+  for (const auto& ch : objectives.channels) {
+    ErrorChannel ec{ch.name, std::vector<double>(output_names.size(), 0.0)};
+    for (size_t o = 0; o < output_names.size(); ++o) {
+      auto it = ch.weights.find(output_names[o]);
+      if (it != ch.weights.end()) ec.weights[o] = it->second;
+    }
+    e.channels.push_back(std::move(ec));
   }
   return e;
 }
@@ -422,6 +520,9 @@ nlohmann::json toJson(const RunConfig& c) {
     return o;
   };
   const auto& s = c.search;
+  json channels = json::array();
+  for (const auto& ch : c.objectives.channels)
+    channels.push_back({{"name", ch.name}, {"weights", ch.weights}});
   return {{"data", data},
           {"program",
            {{"max_length", c.program.max_length},
@@ -438,6 +539,7 @@ nlohmann::json toJson(const RunConfig& c) {
             {"rel_floor", c.objectives.rel_floor},
             {"cost_model", std::string(toString(c.objectives.cost_model))},
             {"cost_overrides", opMap(c.objectives.cost_overrides)},
+            {"channels", channels},
             {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)}}},
           {"search",
            {{"population", s.population},
@@ -448,6 +550,13 @@ nlohmann::json toJson(const RunConfig& c) {
             {"threads", s.threads},
             {"tournament_size", s.tournament_size},
             {"error_bias", s.error_bias},
+            {"linear_scaling", s.linear_scaling},
+            {"seed_references", s.seed_references},
+            {"multi_output",
+             {{"mode", std::string(toString(s.multi_output.mode))},
+              {"first", s.multi_output.first},
+              {"first_share", s.multi_output.first_share},
+              {"first_max_cost", s.multi_output.first_max_cost}}},
             {"variation",
              {{"crossover_rate", s.variation.crossover_rate},
               {"macro_rate", s.variation.macro_rate},
@@ -463,7 +572,9 @@ nlohmann::json toJson(const RunConfig& c) {
               {"max_evaluations", s.refine.nm.max_evaluations},
               {"restarts", s.refine.nm.restarts},
               {"initial_step", s.refine.nm.initial_step},
-              {"tolerance", s.refine.nm.tolerance}}},
+              {"tolerance", s.refine.nm.tolerance},
+              {"method", std::string(toString(s.refine.method))},
+              {"de_evaluations", s.refine.de_evaluations}}},
             {"archive",
              {{"max_size", s.archive.max_size},
               {"eps_log10_error", s.archive.eps_log10_error},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "lgp/eval/semantics.hpp"
 
@@ -145,6 +146,26 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
     }
     ss_tot_[o] = ss;
   }
+  if (buffered()) {
+    const size_t n = ds.paddedRows();
+    raw_.assign(ds.numOutputs(), std::vector<float>(n));
+    chan_pred_.resize(block_size);
+    if (cfg_.linear_scaling) {
+      fit_target_.assign(ds.numOutputs(), std::vector<double>(n));
+      for (int o = 0; o < ds.numOutputs(); ++o)
+        for (size_t r = 0; r < n; ++r)
+          fit_target_[o][r] = applyTransform(cfg_.transforms[o], ds.target(o)[r]);
+    }
+    for (auto& ch : cfg_.channels) {
+      ch.weights.resize(ds.numOutputs(), 0.0);
+      std::vector<double> t(n, 0.0);
+      for (int o = 0; o < ds.numOutputs(); ++o)
+        if (ch.weights[o] != 0)
+          for (size_t r = 0; r < n; ++r) t[r] += ch.weights[o] * ds.target(o)[r];
+      chan_target_.push_back(std::move(t));
+    }
+  }
+  scales_.assign(ds.numOutputs(), LinearScale{});
 }
 
 namespace {
@@ -236,12 +257,124 @@ void Scorer::run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs) {
   }
 }
 
+template <int M>
+bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail::ErrorAcc>& accs) {
+  const int bs = interp_.blockSize();
+  const size_t nb = ds_.numBlocks();
+  const size_t n = ds_.paddedRows();
+  const int k = static_cast<int>(bp.output_slots.size());
+  for (size_t b = 0; b < nb; ++b) {
+    const auto& outs = interp_.evalBlock(bp, ds_, b);
+    for (int o = 0; o < k; ++o) std::memcpy(raw_[o].data() + b * bs, outs[o], bs * sizeof(float));
+  }
+  const double* w = ds_.weight();
+  for (int o = 0; o < k; ++o) {
+    float* v = raw_[o].data();
+    float chk = 0;
+#pragma omp simd reduction(+ : chk)
+    for (size_t r = 0; r < n; ++r) chk += v[r] * 0.0f;
+    if (!(chk == 0.0f)) return false;
+    scales_[o] = LinearScale{};
+    if (scale) {
+      // Weighted least squares of T(y) on f, centred (two passes) for accuracy.
+      const double* y = fit_target_[o].data();
+      double sw = 0, sf = 0, sy = 0;
+      for (size_t r = 0; r < n; ++r) {
+        sw += w[r];
+        sf += w[r] * v[r];
+        sy += w[r] * y[r];
+      }
+      const double mf = sf / sw, my = sy / sw;
+      double sff = 0, sfy = 0;
+      for (size_t r = 0; r < n; ++r) {
+        const double df = v[r] - mf;
+        sff += w[r] * df * df;
+        sfy += w[r] * df * (y[r] - my);
+      }
+      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
+      double b0 = my - a * mf;
+      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
+        a = 0.0;
+        b0 = std::isfinite(my) ? my : 0.0;
+      }
+      LinearScale ls{static_cast<float>(a), static_cast<float>(b0)};
+      scales_[o] = ls;
+      // What the materialised opcode computes (see applyLinearScaling).
+      if (ls.b == 0.0f) {
+#pragma omp simd
+        for (size_t r = 0; r < n; ++r) v[r] = v[r] * ls.a;
+      } else if (ls.a == 1.0f) {
+#pragma omp simd
+        for (size_t r = 0; r < n; ++r) v[r] = v[r] + ls.b;
+      } else {
+#pragma omp simd
+        for (size_t r = 0; r < n; ++r) v[r] = sem::apply<Op::Mad, float>(v[r], ls.a, ls.b, 0.0f);
+      }
+    }
+    const TargetTransform t = cfg_.transforms[o];
+    if (t != TargetTransform::None) {
+#pragma omp simd
+      for (size_t r = 0; r < n; ++r) v[r] = invert<float>(t, v[r]);
+    }
+  }
+  if (cfg_.channels.empty()) {
+    accs.assign(k, Acc{});
+    for (int o = 0; o < k; ++o)
+      for (size_t b = 0; b < nb; ++b)
+        accumulate<M>(accs[o], raw_[o].data() + b * bs, ds_.target(o) + b * bs, w + b * bs, bs,
+                      cfg_.rel_floor);
+    return true;
+  }
+  accs.assign(cfg_.channels.size(), Acc{});
+  for (size_t c = 0; c < cfg_.channels.size(); ++c) {
+    const auto& wt = cfg_.channels[c].weights;
+    for (size_t b = 0; b < nb; ++b) {
+      const size_t off = b * bs;
+      float* cp = chan_pred_.data();
+      std::fill(cp, cp + bs, 0.0f);
+      for (int o = 0; o < k; ++o) {
+        if (wt[o] == 0) continue;
+        const float wo = static_cast<float>(wt[o]);
+        const float* v = raw_[o].data() + off;
+#pragma omp simd
+        for (int i = 0; i < bs; ++i) cp[i] += wo * v[i];
+      }
+      accumulate<M>(accs[c], cp, chan_target_[c].data() + off, w + off, bs, cfg_.rel_floor);
+    }
+  }
+  return true;
+}
+
 double Scorer::error(const Program& p) {
   bound_.bind(p, ds_.numInputs());
   return error(bound_);
 }
 
 double Scorer::error(const BoundProgram& bp) {
+  if (buffered()) {
+    bool ok = false;
+    switch (cfg_.metric) {
+      case ErrorMetric::Rmse:
+        ok = runBuffered<0>(bp, cfg_.linear_scaling, acc_);
+        break;
+      case ErrorMetric::MaxAbs:
+        ok = runBuffered<1>(bp, cfg_.linear_scaling, acc_);
+        break;
+      case ErrorMetric::Mae:
+        ok = runBuffered<2>(bp, cfg_.linear_scaling, acc_);
+        break;
+      case ErrorMetric::MeanRel:
+        ok = runBuffered<3>(bp, cfg_.linear_scaling, acc_);
+        break;
+    }
+    if (!ok) return std::numeric_limits<double>::infinity();
+    errors_.clear();
+    for (const detail::ErrorAcc& a : acc_) {
+      if (!(a.chk == 0.0f)) return std::numeric_limits<double>::infinity();
+      errors_.push_back(pickMetric(metricsFromAcc(a, ds_.weightSum()), cfg_.metric));
+    }
+    return combineValues(errors_, cfg_.combine);
+  }
   switch (cfg_.metric) {
     case ErrorMetric::Rmse:
       run<0>(bp, acc_);
@@ -276,6 +409,123 @@ std::vector<OutputMetrics> Scorer::metrics(const Program& p) {
     out[o].r2 = ss_tot_[o] > 0 ? 1.0 - a.sse / ss_tot_[o] : (a.sse == 0 ? 1.0 : 0.0);
   }
   return out;
+}
+
+std::vector<OutputMetrics> Scorer::channelMetrics(const Program& p) {
+  if (cfg_.channels.empty()) return metrics(p);
+  bound_.bind(p, ds_.numInputs());
+  std::vector<OutputMetrics> out(cfg_.channels.size());
+  if (!runBuffered<-1>(bound_, false, acc_)) return out;
+  for (size_t c = 0; c < acc_.size(); ++c) {
+    if (!(acc_[c].chk == 0.0f)) continue;
+    out[c] = metricsFromAcc(acc_[c], ds_.weightSum());
+    double sw = 0, swy = 0, ss = 0;
+    const double* y = chan_target_[c].data();
+    for (size_t r = 0; r < ds_.rows(); ++r) {
+      sw += ds_.weight()[r];
+      swy += ds_.weight()[r] * y[r];
+    }
+    const double mean = sw > 0 ? swy / sw : 0;
+    for (size_t r = 0; r < ds_.rows(); ++r) ss += ds_.weight()[r] * (y[r] - mean) * (y[r] - mean);
+    out[c].r2 = ss > 0 ? 1.0 - acc_[c].sse / ss : (acc_[c].sse == 0 ? 1.0 : 0.0);
+  }
+  return out;
+}
+
+Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales) {
+  Program q = p;
+  for (size_t o = 0; o < q.outputs.size() && o < scales.size(); ++o) {
+    const LinearScale s = scales[o];
+    if (s.identity()) continue;
+    Instr in;
+    in.args[0] = regOperand(q.outputs[o]);
+    if (s.b == 0.0f) {
+      in.op = Op::Mul;
+      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(s.a);
+    } else if (s.a == 1.0f) {
+      in.op = Op::Add;
+      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(s.b);
+    } else {
+      in.op = Op::Mad;
+      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(s.a);
+      in.args[2] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(s.b);
+    }
+    q.code.push_back(in);
+    q.outputs[o] = static_cast<uint8_t>(q.code.size() - 1);
+  }
+  return q;
+}
+
+double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales) {
+  double c = 0;
+  for (const LinearScale& s : scales) {
+    if (s.identity()) continue;
+    c += m.cost[static_cast<int>(s.b == 0.0f ? Op::Mul : s.a == 1.0f ? Op::Add : Op::Mad)];
+  }
+  return c;
+}
+
+std::vector<OutputMetrics> referenceChannelMetrics(const Program& p, const Table& t,
+                                                   const ErrorConfig& cfg) {
+  if (cfg.channels.empty()) return referenceMetrics(p, t, cfg);
+  const auto pred = evaluateReference(p, t);
+  const size_t n = t.rows();
+  std::vector<OutputMetrics> out(cfg.channels.size());
+  std::vector<std::vector<double>> v(pred.size());
+  for (size_t o = 0; o < pred.size(); ++o) {
+    const TargetTransform tr =
+        o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
+    v[o].resize(n);
+    for (size_t r = 0; r < n; ++r) v[o][r] = invert<double>(tr, pred[o][r]);
+  }
+  for (size_t c = 0; c < cfg.channels.size(); ++c) {
+    const auto& wt = cfg.channels[c].weights;
+    double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
+    bool finite = true;
+    std::vector<double> y(n, 0.0);
+    for (size_t r = 0; r < n; ++r) {
+      double pv = 0;
+      for (size_t o = 0; o < pred.size() && o < wt.size(); ++o) {
+        if (wt[o] == 0) continue;
+        pv += wt[o] * v[o][r];
+        y[r] += wt[o] * t.outputs[o][r];
+      }
+      if (!std::isfinite(pv)) finite = false;
+      const double w = t.weights.empty() ? 1.0 : t.weights[r];
+      const double d = pv - y[r];
+      sw += w;
+      swy += w * y[r];
+      sse += w * d * d;
+      sae += w * std::fabs(d);
+      srel += w * std::fabs(d) / std::max(std::fabs(y[r]), cfg.rel_floor);
+      mx = std::max(mx, std::fabs(d));
+    }
+    if (!finite || sw <= 0) continue;
+    const double mean = swy / sw;
+    double ss = 0;
+    for (size_t r = 0; r < n; ++r) {
+      const double w = t.weights.empty() ? 1.0 : t.weights[r];
+      ss += w * (y[r] - mean) * (y[r] - mean);
+    }
+    out[c].rmse = std::sqrt(sse / sw);
+    out[c].max_abs = mx;
+    out[c].mae = sae / sw;
+    out[c].mean_rel = srel / sw;
+    out[c].r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
+  }
+  return out;
+}
+
+std::vector<std::string> channelNames(const ErrorConfig& cfg,
+                                      const std::vector<std::string>& output_names) {
+  if (cfg.channels.empty()) return output_names;
+  std::vector<std::string> names;
+  for (const auto& c : cfg.channels) names.push_back(c.name);
+  return names;
 }
 
 std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& t,

@@ -51,13 +51,22 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
                       {"float32", metricsToJson(e.metrics[o])},
                       {"double", metricsToJson(e.metrics_ref[o])}});
     }
-    members.push_back({{"index", k},
-                       {"error", num(e.obj.error)},
-                       {"cost", e.obj.cost},
-                       {"discontinuity", e.obj.discontinuity},
-                       {"cost_by_target", costs},
-                       {"outputs", outs},
-                       {"program", toJson(e.program)}});
+    nlohmann::json m = {{"index", k},
+                        {"error", num(e.obj.error)},
+                        {"cost", e.obj.cost},
+                        {"discontinuity", e.obj.discontinuity},
+                        {"cost_by_target", costs},
+                        {"outputs", outs},
+                        {"program", toJson(e.program)}};
+    if (!err_cfg.channels.empty()) {
+      nlohmann::json chans = nlohmann::json::array();
+      for (size_t c = 0; c < err_cfg.channels.size() && c < e.channel_metrics.size(); ++c)
+        chans.push_back({{"name", err_cfg.channels[c].name},
+                         {"float32", metricsToJson(e.channel_metrics[c])},
+                         {"double", metricsToJson(e.channel_metrics_ref[c])}});
+      m["channels"] = chans;
+    }
+    members.push_back(std::move(m));
   }
   const auto p = s.progress();
   return {{"format", "lgp-front/1"},
@@ -77,6 +86,7 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"threads", s.threads()}}},
           {"cost_model", std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
+          {"error_channels", channelNames(err_cfg, t.output_names)},
           {"members", members},
           {"references", cfg.references}};
 }

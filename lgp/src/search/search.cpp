@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include "lgp/core/variation.hpp"
+#include "lgp/search/differential_evolution.hpp"
 #include "lgp/search/nelder_mead.hpp"
 
 namespace lgp {
@@ -59,6 +60,7 @@ Search::Search(RunConfig cfg, Table table)
       ds_(table_, cfg_.eval.block_size),
       archive_(cfg_.search.archive) {
   transform_cost_ = cost_.transformCost(err_cfg_.transforms);
+  err_cfg_.linear_scaling = cfg_.search.linear_scaling;
   threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
   scorers_.resize(threads_);
   start_ = std::chrono::steady_clock::now();
@@ -83,6 +85,7 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   if (!std::isfinite(o.error)) o.error = kInf;
   const auto effective = effectiveIndices(p);
   o.cost = cost_.programCost(p, effective) + transform_cost_;
+  if (err_cfg_.linear_scaling) o.cost += scalingCost(cost_, s.scales());
   o.discontinuity = disc_.programDiscontinuity(p, effective);
   return o;
 }
@@ -112,7 +115,16 @@ void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& eval
     nm.max_evaluations = cfg_.search.refine.offspring_evaluations;
     nm.restarts = 0;
   }
-  const auto res = nelderMead(f, x0, nm, rng);
+  std::vector<double> start = x0;
+  if (full && cfg_.search.refine.method == RefineMethod::DeThenNm) {
+    // A global step first: Nelder-Mead alone stalls in the nearest basin (seed 000 3.2.1).
+    DifferentialEvolutionConfig de;
+    de.max_evaluations = cfg_.search.refine.de_evaluations;
+    const auto d = differentialEvolution(f, x0, de, rng);
+    evals += static_cast<uint64_t>(d.evaluations);
+    start = d.x;
+  }
+  const auto res = nelderMead(f, start, nm, rng);
   evals += static_cast<uint64_t>(res.evaluations);
   if (res.f < ind.obj.error) {
     for (size_t k = 0; k < slots.size(); ++k)
@@ -219,6 +231,20 @@ int Search::tournament(Rng& rng) const {
   return best;
 }
 
+std::vector<std::string> Search::addSeeds(const std::vector<Program>& seeds,
+                                          const std::vector<std::string>& names) {
+  std::vector<std::string> skipped;
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    auto p = fitToShape(seeds[i], shape_);
+    if (p)
+      seeds_.push_back(std::move(*p));
+    else
+      skipped.push_back((i < names.size() ? names[i] : "seed " + std::to_string(i)) + ": " +
+                        p.error());
+  }
+  return skipped;
+}
+
 void Search::initialize() {
   if (initialized_) return;
   const int n = cfg_.search.population;
@@ -229,6 +255,9 @@ void Search::initialize() {
     Rng rng(hashSeed(cfg_.search.seed, 0, static_cast<uint64_t>(i), 1));
     inds[i].program = randomProgram(shape_, init, rng);
   }
+  // Seeds take the first slots (at most half the population: the rest stays diverse).
+  for (size_t k = 0; k < seeds_.size() && k < static_cast<size_t>(n / 2); ++k)
+    inds[k].program = seeds_[k];
   evaluateAll(inds, {}, 0);
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj);
   survive(inds);
@@ -308,7 +337,26 @@ void Search::refineArchive() {
   survive(pool);
 }
 
+void Search::adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,
+                   double elapsed_s, const std::string& stop_reason) {
+  std::vector<Individual> inds(programs.size());
+  for (size_t i = 0; i < programs.size(); ++i) inds[i].program = programs[i];
+  evaluateAll(inds, {}, 0);
+  archive_ = Archive(cfg_.search.archive);
+  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
+  pop_ = std::move(inds);
+  rankPopulation();
+  initialized_ = true;
+  generation_ = generations;
+  evaluations_ = evaluations;
+  elapsed_before_ = elapsed_s;
+  start_ = std::chrono::steady_clock::now();
+  session_evals_ = 0;
+  adopted_stop_ = stop_reason.empty() ? "adopted" : stop_reason;
+}
+
 std::string Search::stopReason() const {
+  if (!adopted_stop_.empty()) return adopted_stop_;
   if (!initialized_) return stop_.load() ? "stopped" : "";
   if (stop_.load()) return "stopped";
   const auto& s = cfg_.search;
@@ -384,17 +432,83 @@ std::vector<FrontEntry> Search::front() const {
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
   for (int i = 0; i < n; ++i) {
     FrontEntry& e = out[i];
-    e.program = pruneIntrons(members[i].program);
-    e.obj = members[i].obj;
     Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
+    e.program = finalProgram(s, members[i].program);
+    e.obj = members[i].obj;
     e.metrics = s.metrics(e.program);
     e.metrics_ref = referenceMetrics(e.program, table_, err_cfg_);
+    if (!err_cfg_.channels.empty()) {
+      e.channel_metrics = s.channelMetrics(e.program);
+      e.channel_metrics_ref = referenceChannelMetrics(e.program, table_, err_cfg_);
+    }
     for (int t = 0; t < kNumCostTargets; ++t)
       e.cost_by_target[t] =
           models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
     e.infix = toInfix(e.program, table_.input_names);
   }
   return out;
+}
+
+Program Search::finalProgram(Scorer& s, const Program& p) const {
+  Program body = pruneIntrons(p);
+  if (!err_cfg_.linear_scaling) return body;
+  s.error(body);  // fits the scales, exactly as when the member was scored
+  return applyLinearScaling(body, s.scales());
+}
+
+Expected<Program> fitToShape(const Program& p, const ProgramShape& shape) {
+  Program q = pruneIntrons(p);
+  if (static_cast<int>(q.outputs.size()) != shape.num_outputs)
+    return Status::error("has " + std::to_string(q.outputs.size()) + " outputs, the run has " +
+                         std::to_string(shape.num_outputs));
+  if (static_cast<int>(q.code.size()) > shape.max_length)
+    return Status::error("needs " + std::to_string(q.code.size()) +
+                         " opcodes; program.max_length is " + std::to_string(shape.max_length));
+  if (static_cast<int>(q.constants.size()) > shape.num_constants)
+    return Status::error("needs " + std::to_string(q.constants.size()) +
+                         " constants; program.constants is " + std::to_string(shape.num_constants));
+  for (const Instr& in : q.code)
+    if (!shape.ops.contains(in.op))
+      return Status::error("uses '" + std::string(opName(in.op)) +
+                           "', which program.ops does not allow");
+  q.constants.resize(shape.num_constants, 0.0f);
+  if (shape.output_mode == OutputMode::Last) {
+    // Outputs must be the last k opcodes, in order: move each output opcode to the end when
+    // no other opcode reads it (introns are gone, so every opcode is read or an output).
+    const int n = static_cast<int>(q.code.size());
+    const int k = shape.num_outputs;
+    std::vector<int> order;  // new position -> old index
+    std::vector<uint8_t> is_out(n, 0);
+    for (int o = 0; o < k; ++o) {
+      if (is_out[q.outputs[o]])
+        return Status::error(
+            "two outputs are the same opcode; output_mode \"last\" needs "
+            "distinct ones (use \"designated\")");
+      is_out[q.outputs[o]] = 1;
+    }
+    for (int i = 0; i < n; ++i)
+      if (!is_out[i]) order.push_back(i);
+    for (int o = 0; o < k; ++o) order.push_back(q.outputs[o]);
+    std::vector<int> pos(n);
+    for (int i = 0; i < n; ++i) pos[order[i]] = i;
+    Program r = q;
+    for (int i = 0; i < n; ++i) {
+      Instr in = q.code[order[i]];
+      for (int a = 0; a < arity(in.op); ++a)
+        if (in.args[a].kind == OperandKind::Reg) {
+          if (pos[in.args[a].index] >= i)
+            return Status::error(
+                "an output is read by a later opcode; output_mode \"last\" "
+                "cannot hold it (use \"designated\")");
+          in.args[a].index = static_cast<uint8_t>(pos[in.args[a].index]);
+        }
+      r.code[i] = in;
+    }
+    for (int o = 0; o < k; ++o) r.outputs[o] = static_cast<uint8_t>(n - k + o);
+    q = std::move(r);
+  }
+  if (Status st = validate(q, shape); !st) return st;
+  return q;
 }
 
 std::string Search::configDigest() const {

@@ -53,9 +53,18 @@ struct ProgramConfig {
   double const_max = 2.0;
 };
 
+// A derived signal the error is measured on: sum over outputs of weight * output, against the
+// same sum of targets. E.g. {"name": "F0=0.04", "weights": {"A": 0.04, "B": 1}} measures the
+// split-sum DFG where it is used, F0*A + B, rather than A and B separately.
+struct ChannelConfig {
+  std::string name;
+  std::map<std::string, double> weights;  // output name -> weight; missing outputs weigh 0
+};
+
 struct ObjectiveConfig {
   ErrorMetric metric = ErrorMetric::Rmse;       // the error objective
-  OutputCombine combine = OutputCombine::Mean;  // across outputs
+  OutputCombine combine = OutputCombine::Mean;  // across outputs (or channels)
+  std::vector<ChannelConfig> channels;          // empty = the error of each output
   double rel_floor = 1e-6;                      // denominator floor of mean_rel
   CostTarget cost_model = CostTarget::GpuGeneric;
   std::map<Op, double> cost_overrides;         // per-operator cost replacing the model's
@@ -71,12 +80,33 @@ struct VariationConfig {
   double effective_bias = 0.9;  // chance a micro mutation targets an effective opcode
 };
 
+enum class RefineMethod : uint8_t {
+  NelderMead,  // local simplex search only
+  DeThenNm     // differential evolution (global) first, then Nelder-Mead from its best point
+};
+
 struct NelderMeadSchedule {
   double offspring_share = 0.1;    // share of each generation's offspring given a quick polish
   int offspring_evaluations = 60;  // budget of that quick polish (no restarts)
   int archive_period = 10;         // every N generations, fully refine unrefined archive members
   int archive_max = 32;            // archive members refined per period, at most
   NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients
+  RefineMethod method = RefineMethod::NelderMead;  // of the full (archive) refinement
+  int de_evaluations = 300;                        // DE budget before Nelder-Mead (de+nm)
+};
+
+enum class MultiOutputMode : uint8_t {
+  Joint,   // one program computes every output; shared sub-expressions cost once
+  TwoStep  // seed 000 section 5.3: fit `first` alone, then the others with its chosen
+           // expression as an extra input; the result is one program (the DAG of both)
+};
+
+struct MultiOutputConfig {
+  MultiOutputMode mode = MultiOutputMode::Joint;
+  std::string first;          // two_step: the output fitted first (e.g. "B")
+  double first_share = 0.4;   // two_step: share of every budget spent on the first step
+  double first_max_cost = 0;  // two_step: the pick is the most accurate first-step member of
+                              // cost <= this; 0 = the knee of its front (see two_step.hpp)
 };
 
 struct SearchConfig {
@@ -89,6 +119,11 @@ struct SearchConfig {
   int tournament_size = 2;       // NSGA-II binary tournament by default
   double error_bias = 0.0;       // share of tournaments decided by error alone, not (rank,
                                  // crowding): steers the search to the accurate end
+  bool linear_scaling = false;   // fit each output as a*f + b with the closed-form a, b
+                                 // (Keijzer; Operon); the front's programs include the mad
+  bool seed_references = false;  // start from the config's reference formulas (those that fit
+                                 // the program shape) besides random programs
+  MultiOutputConfig multi_output;
   VariationConfig variation;
   NelderMeadSchedule refine;
   ArchiveConfig archive;
@@ -125,6 +160,9 @@ struct RunConfig {
 // Operators used when the config lists none: everything except the rarely useful
 // trigonometric pair (add them explicitly for periodic data).
 std::vector<Op> defaultOps();
+
+std::string_view toString(RefineMethod m);
+std::string_view toString(MultiOutputMode m);
 
 // Parses and validates. Errors name the JSON path, e.g.
 // "/search/population: must be an integer >= 4 (got 2)" or "/search/popsize: unknown key".

@@ -60,11 +60,29 @@ struct DiscontinuityModel {
   double programDiscontinuity(const Program& p, const std::vector<int>& effective) const;
 };
 
+// The error is measured on channels: a channel is a weighted sum of the model's outputs
+// (after inverse transforms) against the same sum of targets. Without channels every output
+// is its own channel.
+struct ErrorChannel {
+  std::string name;
+  std::vector<double> weights;  // one per output
+};
+
 struct ErrorConfig {
   ErrorMetric metric = ErrorMetric::Rmse;       // the objective
-  OutputCombine combine = OutputCombine::Mean;  // across outputs
+  OutputCombine combine = OutputCombine::Mean;  // across channels (outputs by default)
   std::vector<TargetTransform> transforms;      // per output; empty = none
   double rel_floor = 1e-6;                      // MeanRel divides by max(|y|, rel_floor)
+  std::vector<ErrorChannel> channels;           // empty = one per output
+  // error() fits each raw program output as a*f + b (weighted least squares against the
+  // transformed target) before measuring; metrics() never scales.
+  bool linear_scaling = false;
+};
+
+// Scale and offset of one output under linear scaling.
+struct LinearScale {
+  float a = 1.0f, b = 0.0f;
+  bool identity() const { return a == 1.0f && b == 0.0f; }
 };
 
 // Every metric of one output, measured on the original (untransformed) scale.
@@ -101,24 +119,51 @@ class Scorer {
   double error(const BoundProgram& bp);
   // Every metric per output, float32 path.
   std::vector<OutputMetrics> metrics(const Program& p);
+  // Every metric per channel (per output when the config has no channels), float32 path.
+  std::vector<OutputMetrics> channelMetrics(const Program& p);
+  // The scales fitted by the last error() call under linear scaling (identity otherwise).
+  const std::vector<LinearScale>& scales() const { return scales_; }
 
  private:
   template <int M>
   void run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs);
+  // Channel or scaled path: buffers every output of every row, then measures.
+  template <int M>
+  bool runBuffered(const BoundProgram& bp, bool scale, std::vector<detail::ErrorAcc>& accs);
+  bool buffered() const { return !cfg_.channels.empty() || cfg_.linear_scaling; }
 
   const Dataset& ds_;
   ErrorConfig cfg_;
   Interpreter interp_;
   BoundProgram bound_;
-  std::vector<detail::ErrorAcc> acc_;  // per-output accumulators, reused
-  std::vector<float> pred_;            // inverse-transformed predictions of one block
-  std::vector<double> ss_tot_;         // weighted total sum of squares per output (for R^2)
-  std::vector<double> errors_;         // per-output errors of the last error() call, reused
+  std::vector<detail::ErrorAcc> acc_;    // per-output accumulators, reused
+  std::vector<float> pred_;              // inverse-transformed predictions of one block
+  std::vector<double> ss_tot_;           // weighted total sum of squares per output (for R^2)
+  std::vector<double> errors_;           // per-output errors of the last error() call, reused
+  std::vector<std::vector<float>> raw_;  // buffered path: per output, every padded row
+  std::vector<std::vector<double>> fit_target_;   // linear scaling: T(y) per output
+  std::vector<std::vector<double>> chan_target_;  // per channel target (channels only)
+  std::vector<float> chan_pred_;                  // one channel's predictions
+  std::vector<LinearScale> scales_;
 };
+
+// Appends the scaling opcodes (mad, or mul/add where a = 1 or b = 0) to a copy of `p`, with
+// new constant slots; outputs become designated. The result computes exactly what
+// Scorer::error() measured.
+Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales);
+// Cost of those opcodes.
+double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales);
 
 // Metrics in double precision via the reference evaluator (the "double check path").
 std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& original,
                                             const ErrorConfig& cfg);
+// The same per channel (per output when the config has no channels).
+std::vector<OutputMetrics> referenceChannelMetrics(const Program& p, const Table& original,
+                                                   const ErrorConfig& cfg);
+// Combines per-channel metrics (per-output ones when there are no channels) into the error.
 double combineError(const std::vector<OutputMetrics>& m, const ErrorConfig& cfg);
+// Channel names: the configured ones, or the output names.
+std::vector<std::string> channelNames(const ErrorConfig& cfg,
+                                      const std::vector<std::string>& output_names);
 
 }  // namespace lgp

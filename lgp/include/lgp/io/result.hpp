@@ -13,7 +13,9 @@
 //       "outputs": [ {"name": "A", "expression": "...", "transform": "none",
 //                     "float32": {"rmse":..,"max_abs":..,"mae":..,"mean_rel":..,"r2":..},
 //                     "double":  {...}} ],
+//       "channels": [ {"name": "F0=1", "float32": {...}, "double": {...}} ],  // with channels
 //       "program": {"code": [...], "constants": [...], "outputs": [...]} } ],
+//   "error_channels": ["A", "B"],    // what "error" combines: channel names, or the outputs
 //   "references": [...] }           // formulas listed in the config, as given
 // front.csv: one row per member and output: index,output,error,cost,discontinuity,
 // rmse,max_abs,mae,mean_rel,r2,expression.

@@ -59,6 +59,8 @@ struct FrontEntry {
   Objectives obj;                          // as searched (float32 interpreter)
   std::vector<OutputMetrics> metrics;      // float32 interpreter, per output
   std::vector<OutputMetrics> metrics_ref;  // double reference evaluator, per output
+  // Per error channel (objectives.channels; empty when the config has none).
+  std::vector<OutputMetrics> channel_metrics, channel_metrics_ref;
   std::array<double, kNumCostTargets> cost_by_target{};
   std::vector<std::string> infix;  // per output
 };
@@ -70,8 +72,17 @@ class Search {
   Search(const Search&) = delete;
   Search& operator=(const Search&) = delete;
 
-  // Random initial population (generation 0). Called by step() if needed.
+  // Programs to start from (e.g. parsed published formulas), before initialize(): each is
+  // fitted to the run's shape (fitToShape) and replaces one random initial program. Programs
+  // that cannot fit are skipped; the result says why, one line per skipped program.
+  std::vector<std::string> addSeeds(const std::vector<Program>& seeds,
+                                    const std::vector<std::string>& names = {});
+  // Random initial population (generation 0), plus the seeds. Called by step() if needed.
   void initialize();
+  // Makes this search's archive the given programs, scored on its table (used to assemble the
+  // result of a multi-step run), with the given counters for progress(); no further steps.
+  void adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,
+             double elapsed_s, const std::string& stop_reason);
   // One generation. No-op once done().
   void step();
   bool done() const;
@@ -113,6 +124,8 @@ class Search {
   std::string stopReason() const;
   std::string configDigest() const;
   Scorer& scorer(int thread);
+  // The program a member stands for: introns pruned, linear scaling materialised.
+  Program finalProgram(Scorer& s, const Program& p) const;
 
   RunConfig cfg_;
   Table table_;
@@ -136,7 +149,14 @@ class Search {
   std::chrono::steady_clock::time_point start_;
   std::atomic<bool> stop_{false};
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
+  std::vector<Program> seeds_;
+  std::string adopted_stop_;  // set by adopt()
 };
+
+// A copy of `p` that satisfies `shape`: constants padded with zeros to the shape's count and,
+// in OutputMode::Last, outputs moved to the last opcodes when nothing later reads them. Errors
+// say why it cannot fit (too long, too many constants, an operator the run does not allow).
+Expected<Program> fitToShape(const Program& p, const ProgramShape& shape);
 
 // Loads the table a config names (data.path). Scenes are resolved by the frontends, which
 // link the datasets library; this returns an error for them.
