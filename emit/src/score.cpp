@@ -2,10 +2,12 @@
 #include "lgp/emit/score.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include "lgp/emit/dag.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/search/nelder_mead.hpp"
 
 namespace lgp::emit {
 
@@ -22,7 +24,7 @@ Expected<nlohmann::json> scoreProgram(const Program& p, const Table& t, const Sc
   const auto mf = scorer.metrics(p);
   const auto md = referenceMetrics(p, t, ec);
   nlohmann::json j;
-  const double err = combineError(mf, ec);
+  const double err = combineError(scorer.channelMetrics(p), ec);
   j["error"] = std::isfinite(err) ? nlohmann::json(err) : nlohmann::json(nullptr);
   j["cost"] = o.cost.programCost(p);
   j["discontinuity"] = o.discontinuity.programDiscontinuity(p);
@@ -39,6 +41,16 @@ Expected<nlohmann::json> scoreProgram(const Program& p, const Table& t, const Sc
                     {"float32", metricsToJson(mf[k])},
                     {"double", metricsToJson(md[k])}});
   j["outputs"] = outs;
+  if (!ec.channels.empty()) {
+    const auto cf = scorer.channelMetrics(p);
+    const auto cd = referenceChannelMetrics(p, t, ec);
+    nlohmann::json chans = nlohmann::json::array();
+    for (size_t c = 0; c < ec.channels.size(); ++c)
+      chans.push_back({{"name", ec.channels[c].name},
+                       {"float32", metricsToJson(cf[c])},
+                       {"double", metricsToJson(cd[c])}});
+    j["channels"] = chans;
+  }
   j["program"] = toJson(p);
   const Dag d = buildDag(p, static_cast<int>(t.numInputs()));
   j["opcodes"] = d.numOps();
@@ -73,8 +85,8 @@ Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs) {
     const auto& r = refs[i];
     if (!r.is_object()) return Status::error(path + ": must be an object {\"name\", \"expr\"}");
     for (const auto& [key, v] : r.items())
-      if (key != "name" && key != "expr" && key != "aliases")
-        return Status::error(path + "/" + key + ": unknown key (name, expr, aliases)");
+      if (key != "name" && key != "expr" && key != "aliases" && key != "refit")
+        return Status::error(path + "/" + key + ": unknown key (name, expr, aliases, refit)");
     Reference ref;
     if (!r.contains("name") || !r["name"].is_string() || r["name"].get<std::string>().empty())
       return Status::error(path + "/name: must be a non-empty string");
@@ -100,7 +112,68 @@ Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs) {
         ref.aliases[from] = to.get<std::string>();
       }
     }
+    if (r.contains("refit")) {
+      if (!r["refit"].is_boolean()) return Status::error(path + "/refit: must be true or false");
+      ref.refit = r["refit"].get<bool>();
+    }
     out.push_back(std::move(ref));
+  }
+  return out;
+}
+
+namespace {
+Expected<ParsedFormula> parseReference(const Reference& r, const Table& t) {
+  ParseOptions po;
+  po.input_names = t.input_names;
+  po.output_names = t.output_names;
+  po.aliases = r.aliases;
+  return parseFormula(r.expr, po);
+}
+}  // namespace
+
+Program refitConstants(const Program& p, const Table& t, const ErrorConfig& error, int block_size,
+                       const RefitOptions& opts) {
+  if (p.constants.empty()) return p;
+  ErrorConfig ec = error;
+  ec.transforms.clear();
+  ec.linear_scaling = false;
+  Dataset ds(t, block_size);
+  Scorer scorer(ds, ec, block_size);
+  Program work = p;
+  BoundProgram bp;
+  bp.bind(work, ds.numInputs());
+  auto f = [&](const std::vector<double>& x) {
+    for (size_t k = 0; k < x.size(); ++k) {
+      const float v = static_cast<float>(x[k]);
+      if (!std::isfinite(v)) return std::numeric_limits<double>::infinity();
+      work.constants[k] = v;
+    }
+    bp.updateConstants(work);
+    return scorer.error(bp);
+  };
+  std::vector<double> x0(p.constants.begin(), p.constants.end());
+  const double f0 = f(x0);
+  Rng rng(opts.seed);
+  NelderMeadConfig nm;
+  nm.max_evaluations = opts.evaluations;
+  nm.restarts = opts.restarts;
+  const auto res = nelderMead(f, x0, nm, rng);
+  Program out = p;
+  if (res.f < f0)
+    for (size_t k = 0; k < x0.size(); ++k) out.constants[k] = static_cast<float>(res.x[k]);
+  return out;
+}
+
+Expected<std::vector<NamedProgram>> referencePrograms(const RunConfig& cfg, const Table& t) {
+  auto refs = parseReferences(cfg.references);
+  if (!refs) return refs.status();
+  std::vector<NamedProgram> out;
+  for (size_t i = 0; i < refs->size(); ++i) {
+    auto pf = parseReference((*refs)[i], t);
+    if (!pf)
+      return Status::error("/references/" + std::to_string(i) + " (" + (*refs)[i].name +
+                           "): " + pf.error());
+    out.push_back({(*refs)[i].name, pf->program});
   }
   return out;
 }
@@ -140,7 +213,21 @@ nlohmann::json scoreReferences(const RunConfig& cfg, const Table& t) {
       out.push_back(*j);
     } else {
       out.push_back({{"name", r.name}, {"expr", r.expr}, {"invalid", j.error()}});
+      continue;
     }
+    if (!r.refit) continue;
+    // The published structure with its constants fitted to this table: the fair baseline
+    // when the published fit targeted a different table (e.g. uncorrelated Smith).
+    auto pf = parseReference(r, t);
+    const Program fitted = refitConstants(pf->program, t, o.error, o.block_size, RefitOptions{});
+    const Dag d = buildDag(fitted, static_cast<int>(t.numInputs()));
+    auto jf = scoreProgram(fitted, t, o, dagInfix(d, t.input_names));
+    if (!jf) continue;
+    nlohmann::json e = {
+        {"name", r.name + " (refit)"}, {"expr", dagInfix(d, t.input_names)}, {"refit_of", r.name}};
+    e.update(*jf);
+    if (!r.aliases.empty()) e["aliases"] = r.aliases;
+    out.push_back(e);
   }
   return out;
 }

@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
+#include "lgp/search/two_step.hpp"
 #include "table_source.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/score.hpp"
@@ -19,12 +20,14 @@
 namespace {
 
 std::atomic<lgp::Search*> g_search{nullptr};
+std::atomic<lgp::TwoStepSearch*> g_two_step{nullptr};
 std::atomic<int> g_interrupts{0};
 
 extern "C" void onSigint(int) {
   // First Ctrl-C: finish the generation and write the front. Second: leave at once.
   if (g_interrupts.fetch_add(1) >= 1) std::_Exit(130);
   if (auto* s = g_search.load()) s->requestStop();
+  if (auto* s = g_two_step.load()) s->requestStop();
 }
 
 std::string fmtErr(double e) {
@@ -85,10 +88,44 @@ int runMain(int argc, char** argv) {
                  table->rows(), table->numInputs(), table->numOutputs(), cfg->search.population,
                  static_cast<unsigned long long>(cfg->search.seed));
 
-  lgp::Search search(*cfg, std::move(*table));
-  g_search.store(&search);
+  std::vector<lgp::Program> seeds;
+  std::vector<std::string> seed_names;
+  if (cfg->search.seed_references) {
+#ifdef LGP_HAVE_EMIT
+    auto progs = lgp::emit::referencePrograms(*cfg, *table);
+    if (!progs) {
+      std::fprintf(stderr, "error: %s\n", progs.error().c_str());
+      return 2;
+    }
+    for (auto& np : *progs) {
+      seed_names.push_back(np.name);
+      seeds.push_back(std::move(np.program));
+    }
+#else
+    std::fprintf(stderr, "error: /search/seed_references: needs the emit library (parser)\n");
+    return 2;
+#endif
+  }
+  const bool two_step = cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
+  if (two_step && !seeds.empty()) {
+    std::fprintf(stderr, "error: /search/seed_references: not available with two_step\n");
+    return 2;
+  }
+  std::unique_ptr<lgp::Search> single;
+  std::unique_ptr<lgp::TwoStepSearch> stepped;
+  if (two_step) {
+    stepped = std::make_unique<lgp::TwoStepSearch>(*cfg, std::move(*table));
+    g_two_step.store(stepped.get());
+  } else {
+    single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
+    // A reference that does not fit the program shape is reported, not fatal.
+    for (const auto& why : single->addSeeds(seeds, seed_names))
+      std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
+    g_search.store(single.get());
+  }
   std::signal(SIGINT, onSigint);
   std::signal(SIGTERM, onSigint);
+  int current_step = 0;
   auto progress = [&](const lgp::SearchProgress& p) {
     if (quiet) return;
     std::string levels;
@@ -97,15 +134,30 @@ int runMain(int argc, char** argv) {
       std::snprintf(b, sizeof(b), " c<=%g:%s", c, fmtErr(e).c_str());
       levels += b;
     }
-    std::fprintf(stderr, "%sgen %d  evals %llu  %.3g evals/s  front %zu  best %s |%s%s",
-                 tty ? "\r\033[K" : "", p.generation,
+    const std::string step = current_step > 0 ? "step " + std::to_string(current_step) + "  " : "";
+    std::fprintf(stderr, "%s%sgen %d  evals %llu  %.3g evals/s  front %zu  best %s |%s%s",
+                 tty ? "\r\033[K" : "", step.c_str(), p.generation,
                  static_cast<unsigned long long>(p.evaluations), p.evals_per_s, p.front_size,
                  fmtErr(p.best_error).c_str(), levels.c_str(), tty ? "" : "\n");
     std::fflush(stderr);
   };
-  search.run(progress);
+  if (stepped) {
+    stepped->run([&](int step, const lgp::SearchProgress& p) {
+      if (step != current_step && current_step > 0 && !quiet && tty) std::fprintf(stderr, "\n");
+      current_step = step;
+      progress(p);
+    });
+    if (!quiet)
+      std::fprintf(stderr, "%slgp: step 1 picked %s = %s\n", tty ? "\n" : "",
+                   stepped->pickColumn().c_str(),
+                   lgp::toInfix(stepped->pick(), stepped->result().table().input_names)[0].c_str());
+  } else {
+    single->run(progress);
+    if (!quiet && tty) std::fprintf(stderr, "\n");
+  }
   g_search.store(nullptr);
-  if (!quiet && tty) std::fprintf(stderr, "\n");
+  g_two_step.store(nullptr);
+  const lgp::Search& search = stepped ? stepped->result() : *single;
 
   const auto front = search.front();
   auto j = lgp::frontToJson(search, front);

@@ -1,4 +1,7 @@
 #include "jobs.hpp"
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/score.hpp"
+#endif
 
 #include <spdlog/spdlog.h>
 
@@ -161,6 +164,14 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   }
   auto cfg = lgp::parseRunConfig(j, cfg_.data_base_dir);
   if (!cfg) return cfg.status();
+  if (cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep)
+    return Status::error(
+        "/search/multi_output/mode: two_step runs are not served by lgpd yet "
+        "(no checkpointing across steps); run them with `lgp run`");
+#ifndef LGP_HAVE_EMIT
+  if (cfg->search.seed_references)
+    return Status::error("/search/seed_references: this lgpd was built without the parser");
+#endif
   // Load the table now so that a missing file or column is a 400, not a failed run.
   if (out.record.inline_table) {
     auto raw = lgp::parseJsonTable(*out.record.inline_table, "/data/table");
@@ -374,7 +385,23 @@ void JobManager::runJob(Job& job) {
         search = std::make_unique<lgp::Search>(*cfg, *table);
       }
     }
-    if (!resumed) search->initialize();
+    if (!resumed) {
+#ifdef LGP_HAVE_EMIT
+      if (cfg->search.seed_references) {
+        auto progs = lgp::emit::referencePrograms(*cfg, *table);
+        if (!progs) return fail(progs.error());
+        std::vector<lgp::Program> seeds;
+        std::vector<std::string> names;
+        for (auto& np : *progs) {
+          names.push_back(np.name);
+          seeds.push_back(np.program);
+        }
+        for (const auto& why : search->addSeeds(seeds, names))
+          spdlog::warn("run {}: not seeded: {}", id, why);
+      }
+#endif
+      search->initialize();
+    }
     {
       std::lock_guard lock(job.search_mutex);
       job.search = search.get();

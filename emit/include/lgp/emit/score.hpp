@@ -5,7 +5,9 @@
 // front.json's "references":
 //   [{"name": "Karis EnvBRDFApprox",
 //     "expr": ["<expr for output 0>", "<expr for output 1>"],   // or one string
-//     "aliases": {"NoV": "mu"}}]                                  // optional
+//     "aliases": {"NoV": "mu"},                                   // optional
+//     "refit": true}]     // optional: also score "<name> (refit)", its constants fitted to
+//                         // this table with the run's error (Nelder-Mead with restarts)
 // "expr" follows parser.hpp's output rules (one text per output, or one text assigning every
 // output). References predict the outputs directly: no target transform is applied.
 #pragma once
@@ -48,7 +50,24 @@ struct Reference {
   std::string name;
   std::vector<std::string> expr;
   std::map<std::string, std::string> aliases;
+  bool refit = false;
 };
+
+struct RefitOptions {
+  int evaluations = 20000;  // Nelder-Mead budget, restarts included
+  int restarts = 8;
+  uint64_t seed = 1;
+};
+// `p` with every constant slot fitted to `t` under `error` (no transforms, no scaling); the
+// constants are kept when the fit does not lower the error.
+Program refitConstants(const Program& p, const Table& t, const ErrorConfig& error, int block_size,
+                       const RefitOptions& opts);
+// The config's references parsed into programs over the table's columns (for seeding a run).
+struct NamedProgram {
+  std::string name;
+  Program program;
+};
+Expected<std::vector<NamedProgram>> referencePrograms(const RunConfig& cfg, const Table& t);
 // Checks the format; errors name the JSON path, e.g. "/references/1/expr: ...".
 Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs);
 // Format and parse check against the table's columns (call before a run to fail early).
