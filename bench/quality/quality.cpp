@@ -1,0 +1,797 @@
+// lgp_quality: what accuracy costs in time (issue 6). For every table of a quality spec
+// (bench/quality/quality.json) it runs the table's config once, to the largest budget,
+// snapshotting the front at each smaller one; scores the published formulas on the same
+// table; runs the search-lever ablation; and writes a report folder (report.md, SVG plots,
+// emitted HLSL). See bench/quality/README.md.
+//
+// Budgets are nominal minutes converted to program evaluations with the table's calibrated
+// rate (evals_per_minute, measured on the reference 2-core machine), so a report depends on
+// the seed and thread count only, never on machine load. Measured wall times go to
+// timing.json, outside the deterministic report.
+#include <cxxopts.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/config/config.hpp"
+#include "lgp/emit/emit.hpp"
+#include "lgp/emit/score.hpp"
+#include "lgp/eval/interpreter.hpp"
+#include "lgp/io/result.hpp"
+#include "lgp/search/search.hpp"
+#include "lgp/search/two_step.hpp"
+#include "svg_plot.hpp"
+#include "table_source.hpp"
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+struct TargetSpec {
+  std::string name;
+  std::vector<std::string> channels;  // channel or output names; every one must satisfy
+  double max_cost = 0;                // or the cost of reference `max_cost_of`
+  std::string max_cost_of;
+  double rmse_max = NAN, max_abs_max = NAN;  // absolute thresholds (NaN = none)
+  std::string beat;                          // or: below this reference's rmse and max
+};
+
+struct AblationSpec {
+  std::string name;
+  json patch;  // JSON merge patch applied to the table's config
+};
+
+struct TableSpec {
+  std::string name, title, config;
+  double evals_per_minute = 0;
+  std::vector<double> minutes;  // empty = the command line's budgets
+  std::vector<double> cost_levels;
+  std::vector<TargetSpec> targets;
+  std::vector<AblationSpec> ablation;
+  double ablation_minutes = 2;
+};
+
+[[noreturn]] void die(const std::string& msg) {
+  std::fprintf(stderr, "lgp_quality: error: %s\n", msg.c_str());
+  std::exit(2);
+}
+
+double getNum(const json& j, const std::string& k, double dflt = NAN) {
+  return j.contains(k) && j[k].is_number() ? j[k].get<double>() : dflt;
+}
+
+std::vector<TableSpec> parseSpec(const json& j, const std::string& file) {
+  std::vector<TableSpec> out;
+  if (!j.is_object() || !j.contains("tables") || !j["tables"].is_array())
+    die(file + ": /tables: must be an array");
+  for (size_t i = 0; i < j["tables"].size(); ++i) {
+    const json& t = j["tables"][i];
+    const std::string at = file + ": /tables/" + std::to_string(i);
+    TableSpec s;
+    if (!t.contains("name") || !t["name"].is_string()) die(at + "/name: must be a string");
+    s.name = t["name"];
+    s.title = t.value("title", s.name);
+    if (!t.contains("config") || !t["config"].is_string()) die(at + "/config: must be a path");
+    s.config = t["config"];
+    s.evals_per_minute = getNum(t, "evals_per_minute", 0);
+    if (!(s.evals_per_minute > 0)) die(at + "/evals_per_minute: must be a number > 0");
+    for (const auto& m : t.value("minutes", json::array())) {
+      if (!m.is_number() || !(m.get<double>() > 0)) die(at + "/minutes: numbers > 0");
+      s.minutes.push_back(m);
+    }
+    for (const auto& c : t.value("cost_levels", json::array())) {
+      if (!c.is_number()) die(at + "/cost_levels: numbers");
+      s.cost_levels.push_back(c);
+    }
+    if (s.cost_levels.empty()) die(at + "/cost_levels: give at least one cost level");
+    for (size_t k = 0; k < t.value("targets", json::array()).size(); ++k) {
+      const json& g = t["targets"][k];
+      const std::string gat = at + "/targets/" + std::to_string(k);
+      TargetSpec ts;
+      ts.name = g.value("name", "");
+      if (ts.name.empty()) die(gat + "/name: must be a non-empty string");
+      for (const auto& c : g.value("channels", json::array())) ts.channels.push_back(c);
+      if (ts.channels.empty()) die(gat + "/channels: name at least one channel or output");
+      ts.max_cost = getNum(g, "max_cost", 0);
+      ts.max_cost_of = g.value("max_cost_of", "");
+      if ((ts.max_cost > 0) == !ts.max_cost_of.empty())
+        die(gat + ": give exactly one of max_cost and max_cost_of");
+      ts.rmse_max = getNum(g, "rmse_max");
+      ts.max_abs_max = getNum(g, "max_abs_max");
+      ts.beat = g.value("beat", "");
+      if (std::isnan(ts.rmse_max) && std::isnan(ts.max_abs_max) && ts.beat.empty())
+        die(gat + ": give rmse_max, max_abs_max or beat");
+      s.targets.push_back(ts);
+    }
+    for (const auto& a : t.value("ablation", json::array())) {
+      if (!a.contains("name") || !a.contains("patch")) die(at + "/ablation: {name, patch}");
+      s.ablation.push_back({a["name"], a["patch"]});
+    }
+    s.ablation_minutes = getNum(t, "ablation_minutes", 2);
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::string fmt(double v, const char* f = "%.4g") {
+  if (!std::isfinite(v)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof(b), f, v);
+  return b;
+}
+
+std::string mdEscape(const std::string& s) {
+  std::string o;
+  for (char c : s) o += c == '|' ? std::string("\\|") : std::string(1, c);
+  return o;
+}
+
+// A metric of a front member or scored reference, by channel or output name.
+double metricOf(const json& m, const std::string& name, const char* metric) {
+  for (const char* key : {"channels", "outputs"})
+    if (m.contains(key))
+      for (const auto& c : m[key])
+        if (c.value("name", "") == name && c.contains("float32"))
+          return getNum(c["float32"], metric, INFINITY);
+  return INFINITY;
+}
+
+std::string memberExpression(const json& m) {
+  std::string s;
+  const auto& outs = m.at("outputs");
+  for (const auto& o : outs) {
+    if (!s.empty()) s += "; ";
+    if (outs.size() > 1) s += o.value("name", "") + " = ";
+    s += o.value("expression", "");
+  }
+  return s;
+}
+
+// Best objective error among members of cost <= c.
+double bestAtCost(const json& members, double c) {
+  double best = INFINITY;
+  for (const auto& m : members)
+    if (getNum(m, "cost", INFINITY) <= c) best = std::min(best, getNum(m, "error", INFINITY));
+  return best;
+}
+
+int bestIndexAtCost(const json& members, double c) {
+  int best = -1;
+  for (size_t i = 0; i < members.size(); ++i) {
+    const json& m = members[i];
+    if (getNum(m, "cost", INFINITY) > c || !std::isfinite(getNum(m, "error", INFINITY))) continue;
+    if (best < 0 || getNum(m, "error") < getNum(members[best], "error")) best = static_cast<int>(i);
+  }
+  return best;
+}
+
+// Float32 predictions of every output on every row, through the block interpreter.
+std::vector<std::vector<float>> predict(const lgp::Program& p, const lgp::Table& t) {
+  const int bs = 256;
+  lgp::Dataset ds(t, bs);
+  lgp::Interpreter interp(bs);
+  lgp::BoundProgram bp;
+  bp.bind(p, ds.numInputs());
+  std::vector<std::vector<float>> out(p.outputs.size(), std::vector<float>(t.rows()));
+  for (size_t b = 0; b < ds.numBlocks(); ++b) {
+    const auto& outs = interp.evalBlock(bp, ds, b);
+    for (size_t o = 0; o < outs.size(); ++o)
+      for (int i = 0; i < bs && b * bs + i < t.rows(); ++i) out[o][b * bs + i] = outs[o][i];
+  }
+  return out;
+}
+
+struct Snapshot {
+  double minutes = 0;
+  uint64_t evaluations = 0;
+  int generation = 0;
+  double wall_s = 0;
+  json front;  // lgp-front/1
+};
+
+struct CurvePoint {
+  double minutes;
+  std::vector<double> best;  // per cost level
+};
+
+struct AblationResult {
+  std::string name;
+  uint64_t evaluations = 0;
+  std::vector<double> best;  // per cost level
+  double wall_s = 0;
+  std::string error;
+};
+
+struct TableResult {
+  TableSpec spec;
+  lgp::RunConfig cfg;
+  lgp::Table table;
+  json refs;
+  std::vector<Snapshot> snaps;
+  std::vector<CurvePoint> curve;
+  std::vector<AblationResult> ablation;
+  std::vector<std::string> channel_names;
+};
+
+lgp::RunConfig loadConfig(const fs::path& path, const json& patch, int threads, uint64_t seed) {
+  std::ifstream in(path);
+  if (!in) die(path.string() + ": cannot open");
+  json j;
+  try {
+    in >> j;
+  } catch (const json::exception& e) {
+    die(path.string() + ": invalid JSON: " + e.what());
+  }
+  if (!patch.is_null()) j.merge_patch(patch);
+  auto c = lgp::parseRunConfig(j, path.parent_path());
+  if (!c) die(path.string() + ": " + c.error());
+  c->search.threads = threads;
+  c->search.seed = seed;
+  c->search.generations = 0;
+  c->search.wall_time_s = 0;
+  return *c;
+}
+
+std::vector<lgp::Program> seedsFor(const lgp::RunConfig& cfg, const lgp::Table& t,
+                                   std::vector<std::string>& names) {
+  std::vector<lgp::Program> seeds;
+  if (!cfg.search.seed_references) return seeds;
+  auto progs = lgp::emit::referencePrograms(cfg, t);
+  if (!progs) die(progs.error());
+  for (auto& np : *progs) {
+    names.push_back(np.name);
+    seeds.push_back(np.program);
+  }
+  return seeds;
+}
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+void runTable(TableResult& r, const std::vector<double>& minutes, bool verbose) {
+  const TableSpec& s = r.spec;
+  std::vector<uint64_t> budgets;
+  for (double m : minutes)
+    budgets.push_back(std::max<uint64_t>(1, static_cast<uint64_t>(m * s.evals_per_minute)));
+  lgp::RunConfig cfg = r.cfg;
+  cfg.search.max_evaluations = budgets.back();
+  cfg.output.progress_cost_levels = s.cost_levels;
+  if (cfg.search.multi_output.mode != lgp::MultiOutputMode::Joint)
+    die(s.config +
+        ": the main config of a quality table must use the joint mode (two_step "
+        "belongs in the ablation)");
+  lgp::Search search(cfg, r.table);
+  std::vector<std::string> names;
+  for (const auto& why : search.addSeeds(seedsFor(cfg, r.table, names), names))
+    std::fprintf(stderr, "  [%s] not seeded: %s\n", s.name.c_str(), why.c_str());
+  const double t0 = now();
+  size_t next = 0;
+  double next_curve = 0;
+  search.initialize();
+  while (true) {
+    const auto p = search.progress();
+    const double mins = static_cast<double>(p.evaluations) / s.evals_per_minute;
+    if (mins >= next_curve || p.finished) {
+      CurvePoint cp{mins, {}};
+      for (const auto& [c, e] : p.best_at_cost) cp.best.push_back(e);
+      r.curve.push_back(cp);
+      next_curve = std::max(mins * 1.15, minutes.front() / 20);
+    }
+    while (next < budgets.size() && (p.evaluations >= budgets[next] || p.finished)) {
+      Snapshot sn;
+      sn.minutes = minutes[next];
+      sn.evaluations = p.evaluations;
+      sn.generation = p.generation;
+      sn.wall_s = now() - t0;
+      sn.front = lgp::frontToJson(search, search.front());
+      if (verbose)
+        std::fprintf(stderr, "  [%s] %g min budget: %llu evaluations, %d generations, %.1f s\n",
+                     s.name.c_str(), sn.minutes, static_cast<unsigned long long>(sn.evaluations),
+                     sn.generation, sn.wall_s);
+      r.snaps.push_back(std::move(sn));
+      ++next;
+    }
+    if (p.finished || next >= budgets.size()) break;
+    search.step();
+  }
+}
+
+AblationResult runAblation(const TableResult& r, const AblationSpec& a, const fs::path& cfg_path,
+                           int threads, uint64_t seed, double minutes) {
+  AblationResult out;
+  out.name = a.name;
+  lgp::RunConfig cfg = loadConfig(cfg_path, a.patch, threads, seed);
+  cfg.search.max_evaluations =
+      std::max<uint64_t>(1, static_cast<uint64_t>(minutes * r.spec.evals_per_minute));
+  const double t0 = now();
+  json members;
+  if (cfg.search.multi_output.mode == lgp::MultiOutputMode::TwoStep) {
+    lgp::TwoStepSearch ts(cfg, r.table);
+    ts.run();
+    members = lgp::frontToJson(ts.result(), ts.result().front())["members"];
+    out.evaluations = ts.result().progress().evaluations;
+  } else {
+    lgp::Search search(cfg, r.table);
+    std::vector<std::string> names;
+    search.addSeeds(seedsFor(cfg, r.table, names), names);
+    search.run();
+    members = lgp::frontToJson(search, search.front())["members"];
+    out.evaluations = search.progress().evaluations;
+  }
+  out.wall_s = now() - t0;
+  for (double c : r.spec.cost_levels) out.best.push_back(bestAtCost(members, c));
+  return out;
+}
+
+// ---- report ----
+
+struct TargetOutcome {
+  std::string name, limit_desc, threshold_desc;
+  double limit = INFINITY;
+  bool met = false;
+  int member = -1;
+  double cost = NAN;
+  std::vector<std::pair<double, double>> measured;  // (rmse, max) per channel
+};
+
+const json* findRef(const json& refs, const std::string& name) {
+  for (const auto& r : refs)
+    if (r.value("name", "") == name && !r.contains("invalid")) return &r;
+  return nullptr;
+}
+
+TargetOutcome evaluateTarget(const TargetSpec& t, const json& members, const json& refs) {
+  TargetOutcome o;
+  o.name = t.name;
+  if (!t.max_cost_of.empty()) {
+    const json* ref = findRef(refs, t.max_cost_of);
+    if (!ref) die("target '" + t.name + "': no scored reference named '" + t.max_cost_of + "'");
+    o.limit = getNum(*ref, "cost");
+    o.limit_desc = "cost <= " + fmt(o.limit) + " (" + t.max_cost_of + ")";
+  } else {
+    o.limit = t.max_cost;
+    o.limit_desc = "cost <= " + fmt(o.limit);
+  }
+  const json* beat = nullptr;
+  if (!t.beat.empty()) {
+    beat = findRef(refs, t.beat);
+    if (!beat) die("target '" + t.name + "': no scored reference named '" + t.beat + "'");
+  }
+  std::string th;
+  for (const auto& ch : t.channels) {
+    if (!th.empty()) th += "; ";
+    th += ch + ":";
+    if (!std::isnan(t.rmse_max)) th += " RMS <= " + fmt(t.rmse_max);
+    if (!std::isnan(t.max_abs_max)) th += " max <= " + fmt(t.max_abs_max);
+    if (beat)
+      th += " RMS < " + fmt(metricOf(*beat, ch, "rmse")) + " and max < " +
+            fmt(metricOf(*beat, ch, "max_abs")) + " (" + t.beat + ")";
+  }
+  o.threshold_desc = th;
+  auto passes = [&](const json& m) {
+    for (const auto& ch : t.channels) {
+      const double rm = metricOf(m, ch, "rmse"), mx = metricOf(m, ch, "max_abs");
+      if (!std::isnan(t.rmse_max) && !(rm <= t.rmse_max)) return false;
+      if (!std::isnan(t.max_abs_max) && !(mx <= t.max_abs_max)) return false;
+      if (beat && !(rm < metricOf(*beat, ch, "rmse") && mx < metricOf(*beat, ch, "max_abs")))
+        return false;
+    }
+    return true;
+  };
+  // The passing member of lowest RMS on the first channel, else the lowest-RMS candidate.
+  const std::string& first = t.channels.front();
+  for (int pass = 1; pass >= 0 && o.member < 0; --pass)
+    for (size_t i = 0; i < members.size(); ++i) {
+      const json& m = members[i];
+      if (!(getNum(m, "cost", INFINITY) <= o.limit)) continue;
+      if (pass && !passes(m)) continue;
+      if (o.member < 0 || metricOf(m, first, "rmse") < metricOf(members[o.member], first, "rmse"))
+        o.member = static_cast<int>(i);
+    }
+  if (o.member >= 0) {
+    const json& m = members[o.member];
+    o.met = passes(m);
+    o.cost = getNum(m, "cost");
+    for (const auto& ch : t.channels)
+      o.measured.emplace_back(metricOf(m, ch, "rmse"), metricOf(m, ch, "max_abs"));
+  }
+  return o;
+}
+
+std::string write(const fs::path& p, const std::string& text) {
+  std::string err;
+  if (!lgp::quality::writeTextFile(p.string(), text, &err)) die(err);
+  return p.filename().string();
+}
+
+void writeTableReport(std::ostringstream& md, const TableResult& r, const fs::path& dir,
+                      json& summary) {
+  const TableSpec& s = r.spec;
+  const Snapshot& fin = r.snaps.back();
+  const json& members = fin.front.at("members");
+  const auto& chans = r.channel_names;
+  md << "## " << s.title << "\n\n";
+  md << "- Config: `" << s.config << "`; " << r.table.rows() << " rows; inputs "
+     << fin.front["table"]["inputs"].dump() << "; outputs " << fin.front["table"]["outputs"].dump()
+     << ".\n";
+  md << "- Error objective: " << lgp::toString(r.cfg.objectives.metric) << ", "
+     << lgp::toString(r.cfg.objectives.combine) << " over " << nlohmann::json(chans).dump()
+     << "; cost model " << lgp::toString(r.cfg.objectives.cost_model) << ".\n";
+  md << "- Levers on: linear scaling " << (r.cfg.search.linear_scaling ? "yes" : "no")
+     << ", seeded with the references " << (r.cfg.search.seed_references ? "yes" : "no")
+     << ", refinement " << lgp::toString(r.cfg.search.refine.method) << "; population "
+     << r.cfg.search.population << ", seed " << r.cfg.search.seed << ", threads "
+     << r.cfg.search.threads << ".\n";
+  md << "- Budgets: " << fmt(s.evals_per_minute, "%.3g")
+     << " evaluations per nominal minute (calibrated on 2 cores; measured times are in "
+        "`timing.json`).\n\n";
+
+  // Targets.
+  json tsum = json::array();
+  if (!s.targets.empty()) {
+    md << "### Targets\n\n| target | limit | threshold | measured (RMS / max) | cost | met |\n"
+          "|---|---|---|---|---|---|\n";
+    for (const auto& t : s.targets) {
+      const auto o = evaluateTarget(t, members, r.refs);
+      std::string meas;
+      for (size_t k = 0; k < o.measured.size(); ++k)
+        meas += (k ? "; " : "") + t.channels[k] + ": " + fmt(o.measured[k].first) + " / " +
+                fmt(o.measured[k].second);
+      md << "| " << mdEscape(o.name) << " | " << mdEscape(o.limit_desc) << " | "
+         << mdEscape(o.threshold_desc) << " | " << (meas.empty() ? "no member" : meas) << " | "
+         << fmt(o.cost) << (o.member >= 0 ? " (#" + std::to_string(o.member) + ")" : "") << " | "
+         << (o.met ? "yes" : "**no**") << " |\n";
+      json mj = json::array();
+      for (const auto& [a, b] : o.measured) mj.push_back({a, b});
+      tsum.push_back({{"target", o.name},
+                      {"limit", o.limit_desc},
+                      {"threshold", o.threshold_desc},
+                      {"measured", mj},
+                      {"cost", o.cost},
+                      {"member", o.member},
+                      {"met", o.met}});
+    }
+    md << "\n";
+  }
+  summary["targets"] = tsum;
+
+  // Accuracy against time.
+  md << "### Accuracy against search time\n\nBest objective error at cost <= c.\n\n| budget "
+        "(nominal min) | evaluations | generations | front |";
+  for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
+  md << "\n|---|---|---|---|";
+  for (size_t k = 0; k < s.cost_levels.size(); ++k) md << "---|";
+  md << "\n";
+  for (const auto& sn : r.snaps) {
+    md << "| " << fmt(sn.minutes) << " | " << sn.evaluations << " | " << sn.generation << " | "
+       << sn.front["members"].size() << " |";
+    for (double c : s.cost_levels) md << " " << fmt(bestAtCost(sn.front["members"], c)) << " |";
+    md << "\n";
+  }
+  md << "\n";
+
+  // Plots: front with references, curves.
+  {
+    lgp::quality::Axes ax;
+    ax.title = s.title + ": Pareto front (objective error against cost)";
+    ax.xlabel = "cost (" + std::string(lgp::toString(r.cfg.objectives.cost_model)) + ")";
+    ax.ylabel = "error";
+    ax.logy = true;
+    std::vector<lgp::quality::Series> ser;
+    for (const auto& sn : r.snaps) {
+      lgp::quality::Series f;
+      f.name = fmt(sn.minutes) + " min";
+      f.style = lgp::quality::Series::Style::Steps;
+      for (const auto& m : sn.front["members"]) {
+        f.x.push_back(getNum(m, "cost"));
+        f.y.push_back(getNum(m, "error", INFINITY));
+      }
+      ser.push_back(f);
+    }
+    lgp::quality::Series refs;
+    refs.name = "published";
+    refs.style = lgp::quality::Series::Style::Markers;
+    refs.marker = lgp::quality::Series::Marker::Diamond;
+    refs.color = "#d62728";
+    for (const auto& ref : r.refs) {
+      if (ref.contains("invalid")) continue;
+      refs.x.push_back(getNum(ref, "cost"));
+      refs.y.push_back(getNum(ref, "error", INFINITY));
+      refs.labels.push_back(ref.value("name", ""));
+    }
+    ser.push_back(refs);
+    md << "![front](" << write(dir / (s.name + "_front.svg"), lgp::quality::svgPlot(ax, ser))
+       << ")\n\n";
+    lgp::quality::Axes cx;
+    cx.title = s.title + ": best error at cost <= c against search time";
+    cx.xlabel = "search time (nominal minutes)";
+    cx.ylabel = "error";
+    cx.logx = cx.logy = true;
+    std::vector<lgp::quality::Series> cs;
+    for (size_t k = 0; k < s.cost_levels.size(); ++k) {
+      lgp::quality::Series l;
+      l.name = "cost <= " + fmt(s.cost_levels[k]);
+      l.style = lgp::quality::Series::Style::Line;
+      for (const auto& cp : r.curve) {
+        l.x.push_back(cp.minutes);
+        l.y.push_back(k < cp.best.size() ? cp.best[k] : INFINITY);
+      }
+      cs.push_back(l);
+    }
+    md << "![curve](" << write(dir / (s.name + "_curve.svg"), lgp::quality::svgPlot(cx, cs))
+       << ")\n\n";
+  }
+
+  // Final front.
+  auto metricCols = [&](const json& m) {
+    std::string out;
+    for (const auto& ch : chans)
+      out += " " + fmt(metricOf(m, ch, "rmse")) + " | " + fmt(metricOf(m, ch, "max_abs")) + " |";
+    return out;
+  };
+  std::string head = "| # | cost | disc | error |", rule = "|---|---|---|---|";
+  for (const auto& ch : chans) {
+    head += " " + ch + " RMS | " + ch + " max |";
+    rule += "---|---|";
+  }
+  md << "### Final front (" << fmt(fin.minutes) << " nominal minutes)\n\n"
+     << head << " expression |\n"
+     << rule << "---|\n";
+  for (size_t i = 0; i < members.size(); ++i) {
+    const json& m = members[i];
+    md << "| " << i << " | " << fmt(getNum(m, "cost")) << " | " << fmt(getNum(m, "discontinuity"))
+       << " | " << fmt(getNum(m, "error", INFINITY)) << " |" << metricCols(m) << " `"
+       << mdEscape(memberExpression(m)) << "` |\n";
+  }
+  md << "\n### Published formulas on the same table\n\n"
+     << "\"(refit)\": the published structure with its constants fitted to this table "
+        "(Nelder-Mead with restarts).\n\n| name | cost | disc | error |";
+  for (const auto& ch : chans) md << " " << ch << " RMS | " << ch << " max |";
+  md << "\n|---|---|---|---|";
+  for (size_t k = 0; k < chans.size(); ++k) md << "---|---|";
+  md << "\n";
+  for (const auto& ref : r.refs) {
+    if (ref.contains("invalid")) {
+      md << "| " << mdEscape(ref.value("name", ""))
+         << " | invalid: " << mdEscape(ref.value("invalid", "")) << " |\n";
+      continue;
+    }
+    md << "| " << mdEscape(ref.value("name", "")) << " | " << fmt(getNum(ref, "cost")) << " | "
+       << fmt(getNum(ref, "discontinuity")) << " | " << fmt(getNum(ref, "error", INFINITY)) << " |"
+       << metricCols(ref) << "\n";
+  }
+  md << "\n";
+
+  // Levers.
+  if (!r.ablation.empty()) {
+    md << "### Search levers (" << fmt(s.ablation_minutes)
+       << " nominal minutes each, same seed)\n\nBest objective error at cost <= c.\n\n| variant "
+          "| evaluations |";
+    for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
+    md << "\n|---|---|";
+    for (size_t k = 0; k < s.cost_levels.size(); ++k) md << "---|";
+    md << "\n";
+    for (const auto& a : r.ablation) {
+      md << "| " << mdEscape(a.name) << " | " << a.evaluations << " |";
+      for (double e : a.best) md << " " << fmt(e) << " |";
+      md << "\n";
+    }
+    md << "\n";
+  }
+
+  // Recommended members: the best at each cost level; HLSL and error maps.
+  std::vector<int> rec;
+  for (double c : s.cost_levels) {
+    const int i = bestIndexAtCost(members, c);
+    if (i >= 0 && std::find(rec.begin(), rec.end(), i) == rec.end()) rec.push_back(i);
+  }
+  md << "### Recommended members\n\nThe most accurate member at each cost level.\n\n";
+  json shape_front = fin.front;
+  const std::string err_name = chans.empty() ? "" : chans.front();
+  for (int i : rec) {
+    const json& m = members[i];
+    md << "- #" << i << ", cost " << fmt(getNum(m, "cost")) << ", error "
+       << fmt(getNum(m, "error", INFINITY)) << ": ";
+    lgp::emit::EmitOptions eo;
+    eo.function_name = "lgp_" + s.name + "_" + std::to_string(i);
+    eo.source = "report member " + std::to_string(i);
+    auto code =
+        lgp::emit::emitFromFront(fin.front, static_cast<size_t>(i), lgp::emit::Language::Hlsl, eo);
+    if (code)
+      md << "[HLSL](" << write(dir / (s.name + "_m" + std::to_string(i) + ".hlsl"), *code) << ")";
+    else
+      md << "HLSL failed: " << code.error();
+    // Signed error of the first channel over the input grid.
+    auto prog = lgp::memberProgram(fin.front, static_cast<size_t>(i));
+    if (prog) {
+      const auto pred = predict(*prog, r.table);
+      const auto ec = r.cfg.errorConfig(r.table.output_names);
+      std::vector<double> err(r.table.rows(), 0.0);
+      for (size_t row = 0; row < r.table.rows(); ++row) {
+        double pv = 0, yv = 0;
+        for (size_t o = 0; o < pred.size(); ++o) {
+          const double w = ec.channels.empty() ? (r.table.output_names[o] == err_name ? 1.0 : 0.0)
+                                               : ec.channels.front().weights[o];
+          pv += w * lgp::invertTransform(ec.transforms[o], pred[o][row]);
+          yv += w * r.table.outputs[o][row];
+        }
+        err[row] = pv - yv;
+      }
+      if (r.table.numInputs() == 2) {
+        std::vector<double> xs(r.table.inputs[0]), ys(r.table.inputs[1]);
+        for (auto* v : {&xs, &ys}) {
+          std::sort(v->begin(), v->end());
+          v->erase(std::unique(v->begin(), v->end()), v->end());
+        }
+        lgp::quality::Heatmap h;
+        h.title = s.title + " #" + std::to_string(i) + ": signed error of " + err_name;
+        h.xlabel = r.table.input_names[0];
+        h.ylabel = r.table.input_names[1];
+        h.value_label = "model - truth";
+        h.diverging = true;
+        h.xs = xs;
+        h.ys = ys;
+        h.values.assign(xs.size() * ys.size(), NAN);
+        for (size_t row = 0; row < r.table.rows(); ++row) {
+          const size_t ix =
+              std::lower_bound(xs.begin(), xs.end(), r.table.inputs[0][row]) - xs.begin();
+          const size_t iy =
+              std::lower_bound(ys.begin(), ys.end(), r.table.inputs[1][row]) - ys.begin();
+          h.values[iy * xs.size() + ix] = err[row];
+        }
+        md << ", [error map]("
+           << write(dir / (s.name + "_heat_m" + std::to_string(i) + ".svg"),
+                    lgp::quality::svgHeatmap(h))
+           << ")";
+      } else {
+        lgp::quality::Axes ax;
+        ax.title = s.title + " #" + std::to_string(i) + ": signed error of " + err_name;
+        ax.xlabel = r.table.input_names[0];
+        ax.ylabel = "model - truth";
+        lgp::quality::Series e;
+        e.name = err_name;
+        e.style = lgp::quality::Series::Style::Markers;
+        e.x = r.table.inputs[0];
+        e.y = err;
+        md << ", [error plot]("
+           << write(dir / (s.name + "_err_m" + std::to_string(i) + ".svg"),
+                    lgp::quality::svgPlot(ax, {e}))
+           << ")";
+      }
+    }
+    md << "\n  `" << mdEscape(memberExpression(m)) << "`\n";
+  }
+  md << "\n";
+  summary["recommended"] = rec;
+}
+
+int qualityMain(int argc, char** argv) {
+  cxxopts::Options opts("lgp_quality",
+                        "Quality runs and report: accuracy against search time "
+                        "and GPU cost, with the published formulas.");
+  opts.add_options()("spec", "quality spec (JSON)",
+                     cxxopts::value<std::string>()->default_value(std::string(LGP_SOURCE_DIR) +
+                                                                  "/bench/quality/quality.json"))(
+      "o,out", "report folder", cxxopts::value<std::string>()->default_value("quality-report"))(
+      "budgets", "nominal minutes, comma-separated (tables may override)",
+      cxxopts::value<std::string>()->default_value("1,5,20"))(
+      "quick", "minutes in total: budgets 0.02,0.05 and ablation 0.02 (structure check)")(
+      "tables", "only these tables, comma-separated", cxxopts::value<std::string>())(
+      "no-ablation", "skip the search-lever runs")("threads", "OpenMP threads",
+                                                   cxxopts::value<int>()->default_value("2"))(
+      "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))("h,help", "help");
+  cxxopts::ParseResult args;
+  try {
+    args = opts.parse(argc, argv);
+  } catch (const std::exception& e) {
+    die(e.what());
+  }
+  if (args.count("help")) {
+    std::printf("%s\n", opts.help().c_str());
+    return 0;
+  }
+  const bool quick = args.count("quick") > 0;
+  const int threads = args["threads"].as<int>();
+  const uint64_t seed = args["seed"].as<uint64_t>();
+  const fs::path spec_path = args["spec"].as<std::string>();
+  std::ifstream in(spec_path);
+  if (!in) die(spec_path.string() + ": cannot open");
+  json spec;
+  try {
+    in >> spec;
+  } catch (const json::exception& e) {
+    die(spec_path.string() + ": invalid JSON: " + e.what());
+  }
+  auto tables = parseSpec(spec, spec_path.string());
+  std::set<std::string> only;
+  if (args.count("tables")) {
+    std::stringstream ss(args["tables"].as<std::string>());
+    for (std::string t; std::getline(ss, t, ',');) only.insert(t);
+  }
+  std::vector<double> budgets;
+  {
+    std::stringstream ss(quick ? std::string("0.02,0.05") : args["budgets"].as<std::string>());
+    for (std::string t; std::getline(ss, t, ',');) {
+      try {
+        budgets.push_back(std::stod(t));
+      } catch (...) {
+        die("--budgets: '" + t + "' is not a number");
+      }
+      if (!(budgets.back() > 0)) die("--budgets: minutes must be > 0");
+    }
+    std::sort(budgets.begin(), budgets.end());
+  }
+  const fs::path out = args["out"].as<std::string>();
+  fs::create_directories(out);
+  std::ostringstream md;
+  md << "# lgp quality report\n\n"
+     << "Generated by `lgp_quality" << (quick ? " --quick" : "") << "` (seed " << seed << ", "
+     << threads << " threads). Every figure below is deterministic for this seed and "
+     << "thread count: budgets are evaluation counts (nominal minutes x the table's calibrated "
+     << "rate). Errors are float32-interpreter figures on the ground-truth table; \"error\" is "
+     << "the run's objective, the RMS/max columns are per error channel (or output).\n\n";
+  json timing = json::object();
+  json summary = json::object();
+  for (auto& spec_t : tables) {
+    if (!only.empty() && !only.count(spec_t.name)) continue;
+    TableResult r;
+    r.spec = spec_t;
+    const fs::path cfg_path = spec_path.parent_path() / spec_t.config;
+    r.cfg = loadConfig(cfg_path, json(), threads, seed);
+    std::fprintf(stderr, "lgp_quality: %s: loading the table\n", spec_t.name.c_str());
+    auto table = lgp::cli::loadRunTable(r.cfg);
+    if (!table) die(cfg_path.string() + ": " + table.error());
+    r.table = std::move(*table);
+    if (auto st = lgp::emit::checkReferences(r.cfg, r.table); !st)
+      die(cfg_path.string() + ": " + st.message());
+    r.channel_names =
+        lgp::channelNames(r.cfg.errorConfig(r.table.output_names), r.table.output_names);
+    r.refs = lgp::emit::scoreReferences(r.cfg, r.table);
+    std::vector<double> mins =
+        quick ? budgets : (spec_t.minutes.empty() ? budgets : spec_t.minutes);
+    std::fprintf(stderr, "lgp_quality: %s: searching to %g nominal minutes\n", spec_t.name.c_str(),
+                 mins.back());
+    runTable(r, mins, true);
+    if (!args.count("no-ablation")) {
+      const double am = quick ? 0.02 : spec_t.ablation_minutes;
+      for (const auto& a : spec_t.ablation) {
+        std::fprintf(stderr, "lgp_quality: %s: lever run '%s'\n", spec_t.name.c_str(),
+                     a.name.c_str());
+        r.ablation.push_back(runAblation(r, a, cfg_path, threads, seed, am));
+      }
+    }
+    json ts = json::object();
+    for (const auto& sn : r.snaps)
+      ts[fmt(sn.minutes) + " min"] = {{"evaluations", sn.evaluations}, {"wall_s", sn.wall_s}};
+    for (const auto& a : r.ablation)
+      ts["lever: " + a.name] = {{"evaluations", a.evaluations}, {"wall_s", a.wall_s}};
+    timing[spec_t.name] = ts;
+    json tsum;
+    writeTableReport(md, r, out, tsum);
+    summary[spec_t.name] = tsum;
+  }
+  write(out / "report.md", md.str());
+  write(out / "timing.json", timing.dump(2) + "\n");
+  write(out / "summary.json", summary.dump(2) + "\n");
+  std::fprintf(stderr, "lgp_quality: report in %s\n", (out / "report.md").string().c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return qualityMain(argc, argv);
+}

@@ -1,0 +1,141 @@
+// `lgp_quality --quick` end to end: the report folder is complete and well formed, every
+// figure in it is finite, and it is deterministic. The targets themselves are not checked
+// here (a quick run is minutes of search); they belong to the committed full report.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+fs::path runQuick(const std::string& name, const std::string& extra = "") {
+  const fs::path dir =
+      fs::temp_directory_path() / ("lgp_quality_" + std::to_string(getpid()) + "_" + name);
+  fs::remove_all(dir);
+  const std::string cmd = std::string(LGP_QUALITY_PATH) + " --quick --out " + dir.string() + " " +
+                          extra + " > " + dir.string() + ".log 2>&1";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(rc, 0) << slurp(dir.string() + ".log");
+  return dir;
+}
+
+class QualityQuick : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { dir_ = new fs::path(runQuick("all")); }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    fs::remove(dir_->string() + ".log");
+    delete dir_;
+  }
+  static fs::path* dir_;
+};
+fs::path* QualityQuick::dir_ = nullptr;
+
+TEST_F(QualityQuick, ReportHasEverySectionForEveryTable) {
+  const std::string md = slurp(*dir_ / "report.md");
+  for (const char* t :
+       {"Split-sum DFG", "Disney-diffuse ZH", "Sphere-light normalization", "Kulla-Conty E_avg"})
+    EXPECT_NE(md.find("## " + std::string(t)), std::string::npos) << t;
+  for (const char* s :
+       {"### Targets", "### Accuracy against search time", "### Final front",
+        "### Published formulas on the same table", "### Search levers", "### Recommended members"})
+    EXPECT_NE(md.find(s), std::string::npos) << s;
+  // The published DFG formulas are scored, published and refit.
+  for (const char* r :
+       {"Karis EnvBRDFApprox", "Iwanicki & Pesce", "Narkowicz 2014", "MaterialX rational",
+        "Ray Tracing Gems ch.32", "Karis EnvBRDFApprox (refit)"})
+    EXPECT_NE(md.find("| " + std::string(r) + " |"), std::string::npos) << r;
+  EXPECT_EQ(md.find("invalid:"), std::string::npos);
+  EXPECT_EQ(md.find("nan"), std::string::npos);
+  EXPECT_EQ(md.find("inf |"), std::string::npos);
+}
+
+TEST_F(QualityQuick, EveryLinkedFileExistsAndIsWellFormed) {
+  const std::string md = slurp(*dir_ / "report.md");
+  const std::regex link(R"(\]\(([A-Za-z0-9_.]+)\))");
+  std::set<std::string> files;
+  for (auto it = std::sregex_iterator(md.begin(), md.end(), link); it != std::sregex_iterator();
+       ++it)
+    files.insert((*it)[1]);
+  int svgs = 0, hlsl = 0;
+  for (const auto& f : files) {
+    const fs::path p = *dir_ / f;
+    ASSERT_TRUE(fs::exists(p)) << f;
+    const std::string text = slurp(p);
+    if (p.extension() == ".svg") {
+      ++svgs;
+      EXPECT_EQ(text.rfind("<svg", 0), 0u) << f;
+      EXPECT_NE(text.find("</svg>"), std::string::npos) << f;
+      EXPECT_EQ(text.find("NaN"), std::string::npos) << f;
+      EXPECT_EQ(text.find("nan"), std::string::npos) << f;
+    } else if (p.extension() == ".hlsl") {
+      ++hlsl;
+      EXPECT_NE(text.find("float"), std::string::npos) << f;
+      EXPECT_NE(text.find("lgp_"), std::string::npos) << f;
+    }
+  }
+  EXPECT_GE(svgs, 4 * 3);  // front, curve and at least one error map per table
+  EXPECT_GE(hlsl, 4);
+}
+
+TEST_F(QualityQuick, SummaryFiguresAreFinite) {
+  const auto s = nlohmann::json::parse(slurp(*dir_ / "summary.json"));
+  for (const char* t : {"dfg", "zh", "normalization", "energy"}) {
+    ASSERT_TRUE(s.contains(t)) << t;
+    ASSERT_FALSE(s[t]["targets"].empty()) << t;
+    for (const auto& g : s[t]["targets"]) {
+      ASSERT_TRUE(g["cost"].is_number()) << g.dump();
+      for (const auto& m : g["measured"]) {
+        EXPECT_TRUE(std::isfinite(m[0].get<double>())) << g.dump();
+        EXPECT_TRUE(std::isfinite(m[1].get<double>())) << g.dump();
+      }
+    }
+    EXPECT_FALSE(s[t]["recommended"].empty()) << t;
+  }
+  const auto timing = nlohmann::json::parse(slurp(*dir_ / "timing.json"));
+  EXPECT_TRUE(timing.contains("dfg"));
+}
+
+TEST_F(QualityQuick, ReportIsDeterministic) {
+  const fs::path again = runQuick("again", "--tables energy,normalization --no-ablation");
+  const fs::path first = runQuick("first", "--tables energy,normalization --no-ablation");
+  EXPECT_EQ(slurp(again / "report.md"), slurp(first / "report.md"));
+  EXPECT_EQ(slurp(again / "energy_front.svg"), slurp(first / "energy_front.svg"));
+  for (const auto& d : {again, first}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".log");
+  }
+}
+
+TEST(QualityCli, BadSpecIsAClearError) {
+  const fs::path spec =
+      fs::temp_directory_path() / ("lgp_bad_spec_" + std::to_string(getpid()) + ".json");
+  std::ofstream(spec) << R"({"tables": [{"name": "x", "config": "c.json"}]})";
+  const std::string log = spec.string() + ".log";
+  const int rc = std::system((std::string(LGP_QUALITY_PATH) + " --spec " + spec.string() +
+                              " --out /tmp/none > " + log + " 2>&1")
+                                 .c_str());
+  EXPECT_NE(rc, 0);
+  EXPECT_NE(slurp(log).find("/tables/0/evals_per_minute"), std::string::npos) << slurp(log);
+  fs::remove(spec);
+  fs::remove(log);
+}
+
+}  // namespace
