@@ -167,32 +167,6 @@ double bestAtCost(const json& members, double c) {
   return best;
 }
 
-int bestIndexAtCost(const json& members, double c) {
-  int best = -1;
-  for (size_t i = 0; i < members.size(); ++i) {
-    const json& m = members[i];
-    if (getNum(m, "cost", INFINITY) > c || !std::isfinite(getNum(m, "error", INFINITY))) continue;
-    if (best < 0 || getNum(m, "error") < getNum(members[best], "error")) best = static_cast<int>(i);
-  }
-  return best;
-}
-
-// Float32 predictions of every output on every row, through the block interpreter.
-std::vector<std::vector<float>> predict(const lgp::Program& p, const lgp::Table& t) {
-  const int bs = 256;
-  lgp::Dataset ds(t, bs);
-  lgp::Interpreter interp(bs);
-  lgp::BoundProgram bp;
-  bp.bind(p, ds.numInputs());
-  std::vector<std::vector<float>> out(p.outputs.size(), std::vector<float>(t.rows()));
-  for (size_t b = 0; b < ds.numBlocks(); ++b) {
-    const auto& outs = interp.evalBlock(bp, ds, b);
-    for (size_t o = 0; o < outs.size(); ++o)
-      for (int i = 0; i < bs && b * bs + i < t.rows(); ++i) out[o][b * bs + i] = outs[o][i];
-  }
-  return out;
-}
-
 struct Snapshot {
   double minutes = 0;
   uint64_t evaluations = 0;
@@ -244,17 +218,11 @@ lgp::RunConfig loadConfig(const fs::path& path, const json& patch, int threads, 
   return *c;
 }
 
-std::vector<lgp::Program> seedsFor(const lgp::RunConfig& cfg, const lgp::Table& t,
-                                   std::vector<std::string>& names) {
-  std::vector<lgp::Program> seeds;
-  if (!cfg.search.seed_references) return seeds;
+std::vector<lgp::NamedProgram> seedsFor(const lgp::RunConfig& cfg, const lgp::Table& t) {
+  if (!cfg.search.seed_references) return {};
   auto progs = lgp::emit::referencePrograms(cfg, t);
   if (!progs) die(progs.error());
-  for (auto& np : *progs) {
-    names.push_back(np.name);
-    seeds.push_back(np.program);
-  }
-  return seeds;
+  return *progs;
 }
 
 double now() {
@@ -274,8 +242,7 @@ void runTable(TableResult& r, const std::vector<double>& minutes, bool verbose) 
         ": the main config of a quality table must use the joint mode (two_step "
         "belongs in the ablation)");
   lgp::Search search(cfg, r.table);
-  std::vector<std::string> names;
-  for (const auto& why : search.addSeeds(seedsFor(cfg, r.table, names), names))
+  for (const auto& why : search.addSeeds(seedsFor(cfg, r.table)))
     std::fprintf(stderr, "  [%s] not seeded: %s\n", s.name.c_str(), why.c_str());
   const double t0 = now();
   size_t next = 0;
@@ -325,8 +292,7 @@ AblationResult runAblation(const TableResult& r, const AblationSpec& a, const fs
     out.evaluations = ts.result().progress().evaluations;
   } else {
     lgp::Search search(cfg, r.table);
-    std::vector<std::string> names;
-    search.addSeeds(seedsFor(cfg, r.table, names), names);
+    search.addSeeds(seedsFor(cfg, r.table));
     search.run();
     members = lgp::frontToJson(search, search.front())["members"];
     out.evaluations = search.progress().evaluations;
@@ -595,11 +561,13 @@ void writeTableReport(std::ostringstream& md, const TableResult& r, const fs::pa
   // Recommended members: the best at each cost level; HLSL and error maps.
   std::vector<int> rec;
   for (double c : s.cost_levels) {
-    const int i = bestIndexAtCost(members, c);
-    if (i >= 0 && std::find(rec.begin(), rec.end(), i) == rec.end()) rec.push_back(i);
+    lgp::emit::MemberSelector sel;
+    sel.max_cost = c;
+    const auto i = lgp::emit::selectMember(fin.front, sel);
+    if (i && std::find(rec.begin(), rec.end(), static_cast<int>(*i)) == rec.end())
+      rec.push_back(static_cast<int>(*i));
   }
   md << "### Recommended members\n\nThe most accurate member at each cost level.\n\n";
-  json shape_front = fin.front;
   const std::string err_name = chans.empty() ? "" : chans.front();
   for (int i : rec) {
     const json& m = members[i];
@@ -617,7 +585,7 @@ void writeTableReport(std::ostringstream& md, const TableResult& r, const fs::pa
     // Signed error of the first channel over the input grid.
     auto prog = lgp::memberProgram(fin.front, static_cast<size_t>(i));
     if (prog) {
-      const auto pred = predict(*prog, r.table);
+      const auto pred = lgp::Interpreter(256).evaluate(*prog, lgp::Dataset(r.table, 256));
       const auto ec = r.cfg.errorConfig(r.table.output_names);
       std::vector<double> err(r.table.rows(), 0.0);
       for (size_t row = 0; row < r.table.rows(); ++row) {

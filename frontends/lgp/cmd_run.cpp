@@ -88,8 +88,7 @@ int runMain(int argc, char** argv) {
                  table->rows(), table->numInputs(), table->numOutputs(), cfg->search.population,
                  static_cast<unsigned long long>(cfg->search.seed));
 
-  std::vector<lgp::Program> seeds;
-  std::vector<std::string> seed_names;
+  std::vector<lgp::NamedProgram> seeds;
   if (cfg->search.seed_references) {
 #ifdef LGP_HAVE_EMIT
     auto progs = lgp::emit::referencePrograms(*cfg, *table);
@@ -97,10 +96,7 @@ int runMain(int argc, char** argv) {
       std::fprintf(stderr, "error: %s\n", progs.error().c_str());
       return 2;
     }
-    for (auto& np : *progs) {
-      seed_names.push_back(np.name);
-      seeds.push_back(std::move(np.program));
-    }
+    seeds = std::move(*progs);
 #else
     std::fprintf(stderr, "error: /search/seed_references: needs the emit library (parser)\n");
     return 2;
@@ -119,7 +115,7 @@ int runMain(int argc, char** argv) {
   } else {
     single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
     // A reference that does not fit the program shape is reported, not fatal.
-    for (const auto& why : single->addSeeds(seeds, seed_names))
+    for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
     g_search.store(single.get());
   }

@@ -390,13 +390,7 @@ void JobManager::runJob(Job& job) {
       if (cfg->search.seed_references) {
         auto progs = lgp::emit::referencePrograms(*cfg, *table);
         if (!progs) return fail(progs.error());
-        std::vector<lgp::Program> seeds;
-        std::vector<std::string> names;
-        for (auto& np : *progs) {
-          names.push_back(np.name);
-          seeds.push_back(np.program);
-        }
-        for (const auto& why : search->addSeeds(seeds, names))
+        for (const auto& why : search->addSeeds(*progs))
           spdlog::warn("run {}: not seeded: {}", id, why);
       }
 #endif

@@ -40,16 +40,7 @@ Program exactAPlusOffsetB(float d) {
 }
 
 std::vector<float> evalOutput(const Program& p, const Table& t, int o) {
-  Dataset ds(t, 64);
-  Interpreter interp(64);
-  BoundProgram bp;
-  bp.bind(p, ds.numInputs());
-  std::vector<float> out;
-  for (size_t b = 0; b < ds.numBlocks(); ++b) {
-    const auto& outs = interp.evalBlock(bp, ds, b);
-    for (int i = 0; i < 64 && out.size() < t.rows(); ++i) out.push_back(outs[o][i]);
-  }
-  return out;
+  return Interpreter(64).evaluate(p, Dataset(t, 64))[o];
 }
 
 ErrorConfig channelConfig() {
@@ -253,7 +244,7 @@ TEST(Seeding, SeedsEnterTheInitialPopulation) {
   for (int i = 1; i < 40; ++i)  // a chain: every opcode is effective
     too_long.code.push_back(Instr{Op::Add, {regOperand(i - 1), inputOperand(1)}});
   too_long.outputs = {38, 39};
-  const auto skipped = s.addSeeds({exactAPlusOffsetB(0.0f), too_long}, {"exact", "long"});
+  const auto skipped = s.addSeeds({{"exact", exactAPlusOffsetB(0.0f)}, {"long", too_long}});
   ASSERT_EQ(skipped.size(), 1u);
   EXPECT_NE(skipped[0].find("long"), std::string::npos);
   s.initialize();

@@ -133,7 +133,7 @@ TEST(MultiOutput, ReferencesSeedARun) {
   ASSERT_TRUE(progs) << progs.error();
   ASSERT_EQ(progs->size(), 1u);
   Search s(c, t);
-  EXPECT_TRUE(s.addSeeds({(*progs)[0].program}).empty());
+  EXPECT_TRUE(s.addSeeds(*progs).empty());
   s.initialize();
   EXPECT_LT(s.progress().best_error, 1e-5);
 }

@@ -127,25 +127,31 @@ double DiscontinuityModel::programDiscontinuity(const Program& p,
   return d;
 }
 
+namespace {
+// Weighted total sum of squares of y about its weighted mean (the denominator of R^2).
+double totalSumOfSquares(const double* y, const double* w, size_t n) {
+  double sw = 0, swy = 0;
+  for (size_t r = 0; r < n; ++r) {
+    sw += w[r];
+    swy += w[r] * y[r];
+  }
+  const double mean = sw > 0 ? swy / sw : 0;
+  double ss = 0;
+  for (size_t r = 0; r < n; ++r) {
+    const double d = y[r] - mean;
+    ss += w[r] * d * d;
+  }
+  return ss;
+}
+}  // namespace
+
 Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
     : ds_(ds), cfg_(std::move(cfg)), interp_(block_size) {
   cfg_.transforms.resize(ds.numOutputs(), TargetTransform::None);
   pred_.resize(block_size);
   ss_tot_.resize(ds.numOutputs());
-  for (int o = 0; o < ds.numOutputs(); ++o) {
-    double sw = 0, swy = 0;
-    for (size_t r = 0; r < ds.rows(); ++r) {
-      sw += ds.weight()[r];
-      swy += ds.weight()[r] * ds.target(o)[r];
-    }
-    const double mean = sw > 0 ? swy / sw : 0;
-    double ss = 0;
-    for (size_t r = 0; r < ds.rows(); ++r) {
-      const double d = ds.target(o)[r] - mean;
-      ss += ds.weight()[r] * d * d;
-    }
-    ss_tot_[o] = ss;
-  }
+  for (int o = 0; o < ds.numOutputs(); ++o)
+    ss_tot_[o] = totalSumOfSquares(ds.target(o), ds.weight(), ds.rows());
   if (buffered()) {
     const size_t n = ds.paddedRows();
     raw_.assign(ds.numOutputs(), std::vector<float>(n));
@@ -162,6 +168,7 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
       for (int o = 0; o < ds.numOutputs(); ++o)
         if (ch.weights[o] != 0)
           for (size_t r = 0; r < n; ++r) t[r] += ch.weights[o] * ds.target(o)[r];
+      chan_ss_tot_.push_back(totalSumOfSquares(t.data(), ds.weight(), ds.rows()));
       chan_target_.push_back(std::move(t));
     }
   }
@@ -300,15 +307,19 @@ bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail:
       LinearScale ls{static_cast<float>(a), static_cast<float>(b0)};
       scales_[o] = ls;
       // What the materialised opcode computes (see applyLinearScaling).
-      if (ls.b == 0.0f) {
+      switch (ls.op()) {
+        case Op::Mul:
 #pragma omp simd
-        for (size_t r = 0; r < n; ++r) v[r] = v[r] * ls.a;
-      } else if (ls.a == 1.0f) {
+          for (size_t r = 0; r < n; ++r) v[r] = v[r] * ls.a;
+          break;
+        case Op::Add:
 #pragma omp simd
-        for (size_t r = 0; r < n; ++r) v[r] = v[r] + ls.b;
-      } else {
+          for (size_t r = 0; r < n; ++r) v[r] = v[r] + ls.b;
+          break;
+        default:
 #pragma omp simd
-        for (size_t r = 0; r < n; ++r) v[r] = sem::apply<Op::Mad, float>(v[r], ls.a, ls.b, 0.0f);
+          for (size_t r = 0; r < n; ++r) v[r] = sem::apply<Op::Mad, float>(v[r], ls.a, ls.b, 0.0f);
+          break;
       }
     }
     const TargetTransform t = cfg_.transforms[o];
@@ -345,50 +356,35 @@ bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail:
   return true;
 }
 
+template <int M>
+bool Scorer::measure(const BoundProgram& bp) {
+  if (buffered()) return runBuffered<M>(bp, cfg_.linear_scaling, acc_);
+  run<M>(bp, acc_);
+  return true;
+}
+
 double Scorer::error(const Program& p) {
   bound_.bind(p, ds_.numInputs());
   return error(bound_);
 }
 
 double Scorer::error(const BoundProgram& bp) {
-  if (buffered()) {
-    bool ok = false;
-    switch (cfg_.metric) {
-      case ErrorMetric::Rmse:
-        ok = runBuffered<0>(bp, cfg_.linear_scaling, acc_);
-        break;
-      case ErrorMetric::MaxAbs:
-        ok = runBuffered<1>(bp, cfg_.linear_scaling, acc_);
-        break;
-      case ErrorMetric::Mae:
-        ok = runBuffered<2>(bp, cfg_.linear_scaling, acc_);
-        break;
-      case ErrorMetric::MeanRel:
-        ok = runBuffered<3>(bp, cfg_.linear_scaling, acc_);
-        break;
-    }
-    if (!ok) return std::numeric_limits<double>::infinity();
-    errors_.clear();
-    for (const detail::ErrorAcc& a : acc_) {
-      if (!(a.chk == 0.0f)) return std::numeric_limits<double>::infinity();
-      errors_.push_back(pickMetric(metricsFromAcc(a, ds_.weightSum()), cfg_.metric));
-    }
-    return combineValues(errors_, cfg_.combine);
-  }
+  bool ok = false;
   switch (cfg_.metric) {
     case ErrorMetric::Rmse:
-      run<0>(bp, acc_);
+      ok = measure<0>(bp);
       break;
     case ErrorMetric::MaxAbs:
-      run<1>(bp, acc_);
+      ok = measure<1>(bp);
       break;
     case ErrorMetric::Mae:
-      run<2>(bp, acc_);
+      ok = measure<2>(bp);
       break;
     case ErrorMetric::MeanRel:
-      run<3>(bp, acc_);
+      ok = measure<3>(bp);
       break;
   }
+  if (!ok) return std::numeric_limits<double>::infinity();
   errors_.clear();
   for (const detail::ErrorAcc& a : acc_) {
     if (!(a.chk == 0.0f)) return std::numeric_limits<double>::infinity();
@@ -419,14 +415,7 @@ std::vector<OutputMetrics> Scorer::channelMetrics(const Program& p) {
   for (size_t c = 0; c < acc_.size(); ++c) {
     if (!(acc_[c].chk == 0.0f)) continue;
     out[c] = metricsFromAcc(acc_[c], ds_.weightSum());
-    double sw = 0, swy = 0, ss = 0;
-    const double* y = chan_target_[c].data();
-    for (size_t r = 0; r < ds_.rows(); ++r) {
-      sw += ds_.weight()[r];
-      swy += ds_.weight()[r] * y[r];
-    }
-    const double mean = sw > 0 ? swy / sw : 0;
-    for (size_t r = 0; r < ds_.rows(); ++r) ss += ds_.weight()[r] * (y[r] - mean) * (y[r] - mean);
+    const double ss = chan_ss_tot_[c];
     out[c].r2 = ss > 0 ? 1.0 - acc_[c].sse / ss : (acc_[c].sse == 0 ? 1.0 : 0.0);
   }
   return out;
@@ -438,21 +427,15 @@ Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& sca
     const LinearScale s = scales[o];
     if (s.identity()) continue;
     Instr in;
+    in.op = s.op();
     in.args[0] = regOperand(q.outputs[o]);
-    if (s.b == 0.0f) {
-      in.op = Op::Mul;
-      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
-      q.constants.push_back(s.a);
-    } else if (s.a == 1.0f) {
-      in.op = Op::Add;
-      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
-      q.constants.push_back(s.b);
-    } else {
-      in.op = Op::Mad;
-      in.args[1] = constOperand(static_cast<int>(q.constants.size()));
-      q.constants.push_back(s.a);
-      in.args[2] = constOperand(static_cast<int>(q.constants.size()));
-      q.constants.push_back(s.b);
+    // mul(f, a), add(f, b) or mad(f, a, b): the constants in operand order.
+    const std::vector<float> ks = in.op == Op::Mul   ? std::vector<float>{s.a}
+                                  : in.op == Op::Add ? std::vector<float>{s.b}
+                                                     : std::vector<float>{s.a, s.b};
+    for (size_t k = 0; k < ks.size(); ++k) {
+      in.args[1 + k] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(ks[k]);
     }
     q.code.push_back(in);
     q.outputs[o] = static_cast<uint8_t>(q.code.size() - 1);
@@ -463,59 +446,72 @@ Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& sca
 double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales) {
   double c = 0;
   for (const LinearScale& s : scales) {
-    if (s.identity()) continue;
-    c += m.cost[static_cast<int>(s.b == 0.0f ? Op::Mul : s.a == 1.0f ? Op::Add : Op::Mad)];
+    if (!s.identity()) c += m.cost[static_cast<int>(s.op())];
   }
   return c;
 }
 
-std::vector<OutputMetrics> referenceChannelMetrics(const Program& p, const Table& t,
-                                                   const ErrorConfig& cfg) {
-  if (cfg.channels.empty()) return referenceMetrics(p, t, cfg);
-  const auto pred = evaluateReference(p, t);
-  const size_t n = t.rows();
-  std::vector<OutputMetrics> out(cfg.channels.size());
-  std::vector<std::vector<double>> v(pred.size());
+namespace {
+// Every metric of one series of double predictions against y (the reference path); the worst
+// values when a prediction is not finite or no row has weight.
+OutputMetrics seriesMetrics(const std::vector<double>& v, const std::vector<double>& y,
+                            const std::vector<double>& weights, double rel_floor) {
+  OutputMetrics m;
+  double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
+  for (size_t r = 0; r < v.size(); ++r) {
+    if (!std::isfinite(v[r])) return OutputMetrics{};
+    const double w = weights.empty() ? 1.0 : weights[r];
+    const double d = v[r] - y[r];
+    sw += w;
+    swy += w * y[r];
+    sse += w * d * d;
+    sae += w * std::fabs(d);
+    srel += w * std::fabs(d) / std::max(std::fabs(y[r]), rel_floor);
+    mx = std::max(mx, std::fabs(d));
+  }
+  if (sw <= 0) return m;
+  const double mean = swy / sw;
+  double ss = 0;
+  for (size_t r = 0; r < v.size(); ++r) {
+    const double w = weights.empty() ? 1.0 : weights[r];
+    ss += w * (y[r] - mean) * (y[r] - mean);
+  }
+  m.rmse = std::sqrt(sse / sw);
+  m.max_abs = mx;
+  m.mae = sae / sw;
+  m.mean_rel = srel / sw;
+  m.r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
+  return m;
+}
+
+// The reference evaluator's outputs, mapped back through the inverse transforms.
+std::vector<std::vector<double>> referencePredictions(const Program& p, const Table& t,
+                                                      const ErrorConfig& cfg) {
+  auto pred = evaluateReference(p, t);
   for (size_t o = 0; o < pred.size(); ++o) {
     const TargetTransform tr =
         o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
-    v[o].resize(n);
-    for (size_t r = 0; r < n; ++r) v[o][r] = invert<double>(tr, pred[o][r]);
+    for (double& v : pred[o]) v = invert<double>(tr, v);
   }
-  for (size_t c = 0; c < cfg.channels.size(); ++c) {
-    const auto& wt = cfg.channels[c].weights;
-    double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
-    bool finite = true;
-    std::vector<double> y(n, 0.0);
-    for (size_t r = 0; r < n; ++r) {
-      double pv = 0;
-      for (size_t o = 0; o < pred.size() && o < wt.size(); ++o) {
-        if (wt[o] == 0) continue;
-        pv += wt[o] * v[o][r];
-        y[r] += wt[o] * t.outputs[o][r];
+  return pred;
+}
+}  // namespace
+
+std::vector<OutputMetrics> referenceChannelMetrics(const Program& p, const Table& t,
+                                                   const ErrorConfig& cfg) {
+  if (cfg.channels.empty()) return referenceMetrics(p, t, cfg);
+  const auto v = referencePredictions(p, t, cfg);
+  const size_t n = t.rows();
+  std::vector<OutputMetrics> out;
+  for (const auto& ch : cfg.channels) {
+    std::vector<double> pv(n, 0.0), y(n, 0.0);
+    for (size_t r = 0; r < n; ++r)
+      for (size_t o = 0; o < v.size() && o < ch.weights.size(); ++o) {
+        if (ch.weights[o] == 0) continue;
+        pv[r] += ch.weights[o] * v[o][r];
+        y[r] += ch.weights[o] * t.outputs[o][r];
       }
-      if (!std::isfinite(pv)) finite = false;
-      const double w = t.weights.empty() ? 1.0 : t.weights[r];
-      const double d = pv - y[r];
-      sw += w;
-      swy += w * y[r];
-      sse += w * d * d;
-      sae += w * std::fabs(d);
-      srel += w * std::fabs(d) / std::max(std::fabs(y[r]), cfg.rel_floor);
-      mx = std::max(mx, std::fabs(d));
-    }
-    if (!finite || sw <= 0) continue;
-    const double mean = swy / sw;
-    double ss = 0;
-    for (size_t r = 0; r < n; ++r) {
-      const double w = t.weights.empty() ? 1.0 : t.weights[r];
-      ss += w * (y[r] - mean) * (y[r] - mean);
-    }
-    out[c].rmse = std::sqrt(sse / sw);
-    out[c].max_abs = mx;
-    out[c].mae = sae / sw;
-    out[c].mean_rel = srel / sw;
-    out[c].r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
+    out.push_back(seriesMetrics(pv, y, t.weights, cfg.rel_floor));
   }
   return out;
 }
@@ -530,40 +526,10 @@ std::vector<std::string> channelNames(const ErrorConfig& cfg,
 
 std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& t,
                                             const ErrorConfig& cfg) {
-  const auto pred = evaluateReference(p, t);
-  std::vector<OutputMetrics> out(pred.size());
-  const size_t n = t.rows();
-  for (size_t o = 0; o < pred.size(); ++o) {
-    const TargetTransform tr =
-        o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
-    double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
-    bool finite = true;
-    for (size_t r = 0; r < n; ++r) {
-      const double w = t.weights.empty() ? 1.0 : t.weights[r];
-      const double v = invert<double>(tr, pred[o][r]);
-      if (!std::isfinite(v)) finite = false;
-      const double y = t.outputs[o][r];
-      const double d = v - y;
-      sw += w;
-      swy += w * y;
-      sse += w * d * d;
-      sae += w * std::fabs(d);
-      srel += w * std::fabs(d) / std::max(std::fabs(y), cfg.rel_floor);
-      mx = std::max(mx, std::fabs(d));
-    }
-    if (!finite || sw <= 0) continue;
-    const double mean = swy / sw;
-    double ss = 0;
-    for (size_t r = 0; r < n; ++r) {
-      const double w = t.weights.empty() ? 1.0 : t.weights[r];
-      ss += w * (t.outputs[o][r] - mean) * (t.outputs[o][r] - mean);
-    }
-    out[o].rmse = std::sqrt(sse / sw);
-    out[o].max_abs = mx;
-    out[o].mae = sae / sw;
-    out[o].mean_rel = srel / sw;
-    out[o].r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
-  }
+  const auto v = referencePredictions(p, t, cfg);
+  std::vector<OutputMetrics> out;
+  for (size_t o = 0; o < v.size(); ++o)
+    out.push_back(seriesMetrics(v[o], t.outputs[o], t.weights, cfg.rel_floor));
   return out;
 }
 

@@ -231,16 +231,14 @@ int Search::tournament(Rng& rng) const {
   return best;
 }
 
-std::vector<std::string> Search::addSeeds(const std::vector<Program>& seeds,
-                                          const std::vector<std::string>& names) {
+std::vector<std::string> Search::addSeeds(const std::vector<NamedProgram>& seeds) {
   std::vector<std::string> skipped;
-  for (size_t i = 0; i < seeds.size(); ++i) {
-    auto p = fitToShape(seeds[i], shape_);
+  for (const auto& seed : seeds) {
+    auto p = fitToShape(seed.program, shape_);
     if (p)
       seeds_.push_back(std::move(*p));
     else
-      skipped.push_back((i < names.size() ? names[i] : "seed " + std::to_string(i)) + ": " +
-                        p.error());
+      skipped.push_back(seed.name + ": " + p.error());
   }
   return skipped;
 }

@@ -146,19 +146,10 @@ void TwoStepSearch::run(const std::function<void(int, const SearchProgress&)>& o
 
   // Step 2: the pick's float32 values become an input column.
   const Table t1 = withOutputs(table_, {first});
-  std::vector<double> vals(t1.rows());
-  {
-    // The block interpreter, so the column holds exactly what the search's programs see.
-    const int bs = cfg_.eval.block_size;
-    Dataset ds(t1, bs);
-    Interpreter interp(bs);
-    BoundProgram bp;
-    bp.bind(pick_prog, ds.numInputs());
-    for (size_t b = 0; b < ds.numBlocks(); ++b) {
-      const auto& outs = interp.evalBlock(bp, ds, b);
-      for (int i = 0; i < bs && b * bs + i < vals.size(); ++i) vals[b * bs + i] = outs[0][i];
-    }
-  }
+  // The block interpreter, so the column holds exactly what the search's programs see.
+  const int bs = cfg_.eval.block_size;
+  const auto picked = Interpreter(bs).evaluate(pick_prog, Dataset(t1, bs))[0];
+  const std::vector<double> vals(picked.begin(), picked.end());
   second_table_ = withOutputs(table_, others);
   second_table_.input_names.push_back(pick_column_);
   second_table_.inputs.push_back(vals);

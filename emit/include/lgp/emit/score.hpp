@@ -63,10 +63,6 @@ struct RefitOptions {
 Program refitConstants(const Program& p, const Table& t, const ErrorConfig& error, int block_size,
                        const RefitOptions& opts);
 // The config's references parsed into programs over the table's columns (for seeding a run).
-struct NamedProgram {
-  std::string name;
-  Program program;
-};
 Expected<std::vector<NamedProgram>> referencePrograms(const RunConfig& cfg, const Table& t);
 // Checks the format; errors name the JSON path, e.g. "/references/1/expr: ...".
 Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs);

@@ -68,6 +68,12 @@ struct Program {
   friend bool operator==(const Program&, const Program&) = default;
 };
 
+// A program with a label (a parsed reference formula used as a seed, say).
+struct NamedProgram {
+  std::string name;
+  Program program;
+};
+
 // Checks every structural invariant; the message names the first violation.
 Status validate(const Program& p, const ProgramShape& shape);
 

@@ -83,6 +83,8 @@ struct ErrorConfig {
 struct LinearScale {
   float a = 1.0f, b = 0.0f;
   bool identity() const { return a == 1.0f && b == 0.0f; }
+  // The opcode that applies it: mul(f, a) when b = 0, add(f, b) when a = 1, else mad(f, a, b).
+  Op op() const { return b == 0.0f ? Op::Mul : a == 1.0f ? Op::Add : Op::Mad; }
 };
 
 // Every metric of one output, measured on the original (untransformed) scale.
@@ -131,6 +133,10 @@ class Scorer {
   template <int M>
   bool runBuffered(const BoundProgram& bp, bool scale, std::vector<detail::ErrorAcc>& accs);
   bool buffered() const { return !cfg_.channels.empty() || cfg_.linear_scaling; }
+  // Fills acc_ for metric M by whichever path the config needs; false if an output is not
+  // finite.
+  template <int M>
+  bool measure(const BoundProgram& bp);
 
   const Dataset& ds_;
   ErrorConfig cfg_;
@@ -143,6 +149,7 @@ class Scorer {
   std::vector<std::vector<float>> raw_;  // buffered path: per output, every padded row
   std::vector<std::vector<double>> fit_target_;   // linear scaling: T(y) per output
   std::vector<std::vector<double>> chan_target_;  // per channel target (channels only)
+  std::vector<double> chan_ss_tot_;               // per channel total sum of squares (R^2)
   std::vector<float> chan_pred_;                  // one channel's predictions
   std::vector<LinearScale> scales_;
 };

@@ -75,8 +75,7 @@ class Search {
   // Programs to start from (e.g. parsed published formulas), before initialize(): each is
   // fitted to the run's shape (fitToShape) and replaces one random initial program. Programs
   // that cannot fit are skipped; the result says why, one line per skipped program.
-  std::vector<std::string> addSeeds(const std::vector<Program>& seeds,
-                                    const std::vector<std::string>& names = {});
+  std::vector<std::string> addSeeds(const std::vector<NamedProgram>& seeds);
   // Random initial population (generation 0), plus the seeds. Called by step() if needed.
   void initialize();
   // Makes this search's archive the given programs, scored on its table (used to assemble the
