@@ -313,6 +313,15 @@ void parseVariation(const nlohmann::json& j, VariationConfig& v) {
   o.finish();
 }
 
+void parseIslands(const nlohmann::json& j, IslandConfig& c) {
+  Obj o(j, "/search/islands");
+  o.integer("count", c.count, 1, 4096);
+  o.integer("migration_interval", c.migration_interval, 0, 1 << 30);
+  o.integer("migrants", c.migrants, 0, 1 << 20);
+  o.integer("restart_after", c.restart_after, 0, 1 << 30);
+  o.finish();
+}
+
 void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   Obj o(j, "/search");
   o.integer("population", s.population, 4, 1 << 20);
@@ -326,6 +335,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   o.boolean("linear_scaling", s.linear_scaling);
   o.boolean("seed_references", s.seed_references);
   if (o.has("multi_output")) parseMultiOutput(o.at("multi_output"), s.multi_output);
+  if (o.has("islands")) parseIslands(o.at("islands"), s.islands);
   if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
   if (o.has("refine")) parseNm(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
@@ -359,6 +369,12 @@ void parseOutput(const nlohmann::json& j, OutputConfig& out) {
 
 }  // namespace
 
+Status IslandConfig::validate() const {
+  if (count < 1) return Status::error("count: must be >= 1");
+  if (migrants < 0) return Status::error("migrants: must be >= 0");
+  return Status::ok();
+}
+
 Status RunConfig::validate() const {
   if (data.path.empty() == data.scene.empty())
     return Status::error("/data: exactly one of \"path\" and \"scene\" is required");
@@ -376,6 +392,8 @@ Status RunConfig::validate() const {
         "/search: set at least one budget (generations, max_evaluations or wall_time_s)");
   if (auto s = search.archive.validate(); !s)
     return Status::error("/search/archive/" + s.message());
+  if (auto s = search.islands.validate(); !s)
+    return Status::error("/search/islands/" + s.message());
   if (auto s = search.refine.nm.validate(); !s)
     return Status::error("/search/refine/" + s.message());
   if (eval.block_size < 16 || eval.block_size % 16 != 0)
@@ -557,6 +575,11 @@ nlohmann::json toJson(const RunConfig& c) {
               {"first", s.multi_output.first},
               {"first_share", s.multi_output.first_share},
               {"first_max_cost", s.multi_output.first_max_cost}}},
+            {"islands",
+             {{"count", s.islands.count},
+              {"migration_interval", s.islands.migration_interval},
+              {"migrants", s.islands.migrants},
+              {"restart_after", s.islands.restart_after}}},
             {"variation",
              {{"crossover_rate", s.variation.crossover_rate},
               {"macro_rate", s.variation.macro_rate},

@@ -156,79 +156,141 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
   session_evals_ += evals;
 }
 
-void Search::rankPopulation() {
+void Search::rankIsland(Island& isl) {
   // Duplicated objective vectors rank after every distinct one: they add nothing to the front
   // and would otherwise crowd it out (the classic bloat of trivial programs).
-  const int n = static_cast<int>(pop_.size());
+  const auto& pop = isl.pop;
+  const int n = static_cast<int>(pop.size());
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
-  auto err = [&](int i) { return pop_[i].obj.finite() ? pop_[i].obj.error : kInf; };
+  auto err = [&](int i) { return pop[i].obj.finite() ? pop[i].obj.error : kInf; };
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
     if (err(a) != err(b)) return err(a) < err(b);
-    if (pop_[a].obj.cost != pop_[b].obj.cost) return pop_[a].obj.cost < pop_[b].obj.cost;
-    return pop_[a].obj.discontinuity < pop_[b].obj.discontinuity;
+    if (pop[a].obj.cost != pop[b].obj.cost) return pop[a].obj.cost < pop[b].obj.cost;
+    return pop[a].obj.discontinuity < pop[b].obj.discontinuity;
   });
   std::vector<uint8_t> is_dup(n, 0);
   for (int k = 1; k < n; ++k) {
     const int a = order[k - 1], b = order[k];
-    is_dup[b] = err(a) == err(b) && pop_[a].obj.cost == pop_[b].obj.cost &&
-                pop_[a].obj.discontinuity == pop_[b].obj.discontinuity;
+    is_dup[b] = err(a) == err(b) && pop[a].obj.cost == pop[b].obj.cost &&
+                pop[a].obj.discontinuity == pop[b].obj.discontinuity;
   }
   std::vector<int> uniq, dup;
   for (int i = 0; i < n; ++i) (is_dup[i] ? dup : uniq).push_back(i);
   std::vector<Objectives> objs;
-  for (int i : uniq) objs.push_back(pop_[i].obj);
+  objs.reserve(uniq.size());
+  for (int i : uniq) objs.push_back(pop[i].obj);
   const auto r = nondominatedRanks(objs);
-  rank_.assign(n, 0);
-  crowd_.assign(n, 0.0);
+  isl.rank.assign(n, 0);
+  isl.crowd.assign(n, 0.0);
   int max_rank = 0;
   for (size_t k = 0; k < uniq.size(); ++k) {
-    rank_[uniq[k]] = r[k];
+    isl.rank[uniq[k]] = r[k];
     max_rank = std::max(max_rank, r[k]);
   }
-  for (int i : dup) rank_[i] = max_rank + 1;
+  for (int i : dup) isl.rank[i] = max_rank + 1;
   std::vector<Objectives> all;
-  for (const auto& ind : pop_) all.push_back(ind.obj);
+  all.reserve(n);
+  for (const auto& ind : pop) all.push_back(ind.obj);
   std::vector<std::vector<int>> fronts(max_rank + 2);
-  for (int i = 0; i < n; ++i) fronts[rank_[i]].push_back(i);
+  for (int i = 0; i < n; ++i) fronts[isl.rank[i]].push_back(i);
   for (const auto& members : fronts) {
     if (members.empty()) continue;
     const auto d = crowdingDistance(all, members);
-    for (size_t k = 0; k < members.size(); ++k) crowd_[members[k]] = d[k];
+    for (size_t k = 0; k < members.size(); ++k) isl.crowd[members[k]] = d[k];
   }
 }
 
-void Search::survive(std::vector<Individual>& pool) {
-  pop_ = std::move(pool);
-  rankPopulation();
-  const int n = static_cast<int>(pop_.size());
+void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) {
+  isl.pop = std::move(pool);
+  rankIsland(isl);
+  const int n = static_cast<int>(isl.pop.size());
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    if (rank_[a] != rank_[b]) return rank_[a] < rank_[b];
-    return crowd_[a] > crowd_[b];
+    if (isl.rank[a] != isl.rank[b]) return isl.rank[a] < isl.rank[b];
+    return isl.crowd[a] > isl.crowd[b];
   });
-  const int keep = std::min(n, cfg_.search.population);
+  keep = std::min(n, keep);
+  // Survivors keep the rank and crowding of the pool's ranking, as in NSGA-II (Deb et al.
+  // 2002): tournaments compare them directly, so no second sort is needed.
   std::vector<Individual> next;
+  std::vector<int> rank;
+  std::vector<double> crowd;
   next.reserve(keep);
-  for (int k = 0; k < keep; ++k) next.push_back(std::move(pop_[order[k]]));
-  pop_ = std::move(next);
-  rankPopulation();
+  rank.reserve(keep);
+  crowd.reserve(keep);
+  for (int k = 0; k < keep; ++k) {
+    next.push_back(std::move(isl.pop[order[k]]));
+    rank.push_back(isl.rank[order[k]]);
+    crowd.push_back(isl.crowd[order[k]]);
+  }
+  isl.pop = std::move(next);
+  isl.rank = std::move(rank);
+  isl.crowd = std::move(crowd);
 }
 
-int Search::tournament(Rng& rng) const {
-  const int n = static_cast<int>(pop_.size());
+int Search::tournament(const Island& isl, Rng& rng) const {
+  const auto& pop = isl.pop;
+  const int n = static_cast<int>(pop.size());
   const bool by_error = rng.chance(cfg_.search.error_bias);
   int best = static_cast<int>(rng.below(n));
   for (int t = 1; t < cfg_.search.tournament_size; ++t) {
     const int c = static_cast<int>(rng.below(n));
     if (by_error) {
-      if (pop_[c].obj.error < pop_[best].obj.error) best = c;
-    } else if (rank_[c] < rank_[best] || (rank_[c] == rank_[best] && crowd_[c] > crowd_[best])) {
+      if (pop[c].obj.error < pop[best].obj.error) best = c;
+    } else if (isl.rank[c] < isl.rank[best] ||
+               (isl.rank[c] == isl.rank[best] && isl.crowd[c] > isl.crowd[best])) {
       best = c;
     }
   }
   return best;
+}
+
+int Search::islandSize(int k) const {
+  const int n = cfg_.search.population;
+  const int count = static_cast<int>(islands_.size());
+  return n / count + (k < n % count ? 1 : 0);
+}
+
+void Search::migrate(int generation) {
+  const auto& ic = cfg_.search.islands;
+  const int count = static_cast<int>(islands_.size());
+  if (count < 2 || ic.migrants == 0) return;
+  // Each island sends its lowest-error member and random others from its first front.
+  for (int k = 0; k < count; ++k) {
+    const Island& isl = islands_[k];
+    std::vector<int> first;
+    int best = -1;
+    for (int i = 0; i < static_cast<int>(isl.pop.size()); ++i) {
+      if (isl.rank[i] != 0 || !isl.pop[i].obj.finite()) continue;
+      first.push_back(i);
+      if (best < 0 || isl.pop[i].obj.error < isl.pop[best].obj.error) best = i;
+    }
+    if (first.empty()) continue;
+    Rng rng(
+        hashSeed(cfg_.search.seed, static_cast<uint64_t>(generation), static_cast<uint64_t>(k), 5));
+    std::vector<Migrant> out;
+    out.push_back({isl.pop[best].program, isl.pop[best].obj});
+    first.erase(std::find(first.begin(), first.end(), best));
+    while (static_cast<int>(out.size()) < ic.migrants && !first.empty()) {
+      const size_t j = rng.below(static_cast<uint32_t>(first.size()));
+      out.push_back({isl.pop[first[j]].program, isl.pop[first[j]].obj});
+      first.erase(first.begin() + static_cast<std::ptrdiff_t>(j));
+    }
+    transport_->send(k, migrationTarget(k, count), std::move(out));
+  }
+  // Arrivals join the island's pool; the worst leave (elitist, like any survival).
+  std::vector<std::vector<Migrant>> arrived(count);
+  for (int k = 0; k < count; ++k) arrived[k] = transport_->receive(k);
+#pragma omp parallel for num_threads(threads_) schedule(static, 1)
+  for (int k = 0; k < count; ++k) {
+    if (arrived[k].empty()) continue;
+    Island& isl = islands_[k];
+    std::vector<Individual> pool = std::move(isl.pop);
+    for (auto& m : arrived[k]) pool.push_back({std::move(m.program), m.obj, false});
+    survive(isl, pool, islandSize(k));
+  }
 }
 
 std::vector<std::string> Search::addSeeds(const std::vector<NamedProgram>& seeds) {
@@ -246,6 +308,9 @@ std::vector<std::string> Search::addSeeds(const std::vector<NamedProgram>& seeds
 void Search::initialize() {
   if (initialized_) return;
   const int n = cfg_.search.population;
+  const int count = std::clamp(cfg_.search.islands.count, 1, std::max(1, n / 4));
+  islands_.assign(count, Island{});
+  transport_ = std::make_unique<LocalTransport>(count);
   InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
                   cfg_.program.const_min, cfg_.program.const_max};
   std::vector<Individual> inds(n);
@@ -253,12 +318,26 @@ void Search::initialize() {
     Rng rng(hashSeed(cfg_.search.seed, 0, static_cast<uint64_t>(i), 1));
     inds[i].program = randomProgram(shape_, init, rng);
   }
-  // Seeds take the first slots (at most half the population: the rest stays diverse).
-  for (size_t k = 0; k < seeds_.size() && k < static_cast<size_t>(n / 2); ++k)
-    inds[k].program = seeds_[k];
+  // Seeds take the first slots of every island (at most half of each: the rest stays diverse).
+  int first = 0;
+  for (int k = 0; k < count; ++k) {
+    const int size = islandSize(k);
+    for (int j = 0; j < static_cast<int>(seeds_.size()) && j < size / 2; ++j)
+      inds[first + j].program = seeds_[j];
+    first += size;
+  }
   evaluateAll(inds, {}, 0);
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj);
-  survive(inds);
+  first = 0;
+  for (int k = 0; k < count; ++k) {
+    const int size = islandSize(k);
+    std::vector<Individual> pool(std::make_move_iterator(inds.begin() + first),
+                                 std::make_move_iterator(inds.begin() + first + size));
+    survive(islands_[k], pool, size);
+    for (const auto& ind : islands_[k].pop)
+      islands_[k].best = std::min(islands_[k].best, ind.obj.error);
+    first += size;
+  }
   generation_ = 0;
   initialized_ = true;
 }
@@ -271,18 +350,41 @@ void Search::step() {
   if (done()) return;
   const int g = generation_ + 1;
   const int n = cfg_.search.population;
+  const int count = static_cast<int>(islands_.size());
   const auto& var = cfg_.search.variation;
+  const auto& ic = cfg_.search.islands;
+  // Offspring i belongs to island owner[i]; islands own consecutive ranges.
+  std::vector<int> owner(n), first(count + 1, 0);
+  for (int k = 0; k < count; ++k) {
+    first[k + 1] = first[k] + islandSize(k);
+    for (int i = first[k]; i < first[k + 1]; ++i) owner[i] = k;
+  }
+  // A stagnant island starts over: random programs, plus archive members to build on.
+  std::vector<uint8_t> restart(count, 0);
+  if (ic.restart_after > 0)
+    for (int k = 0; k < count; ++k) restart[k] = islands_[k].stagnant >= ic.restart_after;
+  InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
+                  cfg_.program.const_min, cfg_.program.const_max};
+  const auto& archived = archive_.members();
   std::vector<Individual> off(n);
 #pragma omp parallel for num_threads(threads_) schedule(static)
   for (int i = 0; i < n; ++i) {
     Rng rng(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), static_cast<uint64_t>(i), 1));
-    const int a = tournament(rng);
+    const Island& isl = islands_[owner[i]];
+    if (restart[owner[i]]) {
+      const int j = i - first[owner[i]];
+      off[i].program = j < ic.migrants && !archived.empty()
+                           ? archived[rng.below(static_cast<uint32_t>(archived.size()))].program
+                           : randomProgram(shape_, init, rng);
+      continue;
+    }
+    const int a = tournament(isl, rng);
     Program child;
     if (rng.chance(var.crossover_rate)) {
-      const int b = tournament(rng);
-      child = crossover(pop_[a].program, pop_[b].program, shape_, rng);
+      const int b = tournament(isl, rng);
+      child = crossover(isl.pop[a].program, isl.pop[b].program, shape_, rng);
     } else {
-      child = pop_[a].program;
+      child = isl.pop[a].program;
     }
     if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng);
     if (rng.chance(var.micro_rate)) {
@@ -298,10 +400,29 @@ void Search::step() {
   evaluateAll(off, refine, static_cast<uint64_t>(g));
   for (const auto& ind : off) archive_.insert(ind.program, ind.obj, ind.refined);
 
-  std::vector<Individual> pool = std::move(pop_);
-  pool.insert(pool.end(), std::make_move_iterator(off.begin()), std::make_move_iterator(off.end()));
-  survive(pool);
+#pragma omp parallel for num_threads(threads_) schedule(static, 1)
+  for (int k = 0; k < count; ++k) {
+    Island& isl = islands_[k];
+    std::vector<Individual> pool;
+    if (!restart[k]) pool = std::move(isl.pop);
+    pool.insert(pool.end(), std::make_move_iterator(off.begin() + first[k]),
+                std::make_move_iterator(off.begin() + first[k + 1]));
+    survive(isl, pool, first[k + 1] - first[k]);
+    double best = kInf;
+    for (const auto& ind : isl.pop) best = std::min(best, ind.obj.error);
+    if (restart[k]) {
+      isl.best = best;
+      isl.stagnant = 0;
+    } else if (best < isl.best * (1 - 1e-9)) {
+      isl.best = best;
+      isl.stagnant = 0;
+    } else {
+      ++isl.stagnant;
+    }
+  }
+  for (int k = 0; k < count; ++k) restarts_ += restart[k];
   generation_ = g;
+  if (ic.migration_interval > 0 && g % ic.migration_interval == 0) migrate(g);
   if (cfg_.search.refine.archive_period > 0 && g % cfg_.search.refine.archive_period == 0)
     refineArchive();
 }
@@ -329,10 +450,13 @@ void Search::refineArchive() {
   evaluations_ += evals;
   session_evals_ += evals;
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
-  // Refined members also rejoin the population so their constants propagate.
-  std::vector<Individual> pool = std::move(pop_);
-  for (auto& ind : inds) pool.push_back(std::move(ind));
-  survive(pool);
+  // Refined members also rejoin the islands (dealt in turn) so their constants propagate.
+  const int count = static_cast<int>(islands_.size());
+  std::vector<std::vector<Individual>> pools(count);
+  for (int k = 0; k < count; ++k) pools[k] = std::move(islands_[k].pop);
+  for (size_t j = 0; j < inds.size(); ++j) pools[j % count].push_back(std::move(inds[j]));
+#pragma omp parallel for num_threads(threads_) schedule(static, 1)
+  for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(k));
 }
 
 void Search::adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,
@@ -342,8 +466,10 @@ void Search::adopt(const std::vector<Program>& programs, int generations, uint64
   evaluateAll(inds, {}, 0);
   archive_ = Archive(cfg_.search.archive);
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
-  pop_ = std::move(inds);
-  rankPopulation();
+  islands_.assign(1, Island{});
+  transport_ = std::make_unique<LocalTransport>(1);
+  islands_[0].pop = std::move(inds);
+  rankIsland(islands_[0]);
   initialized_ = true;
   generation_ = generations;
   evaluations_ = evaluations;
@@ -417,6 +543,9 @@ SearchProgress Search::progress() const {
   }
   p.stop_reason = stopReason();
   p.finished = !p.stop_reason.empty();
+  p.islands = std::max<int>(1, static_cast<int>(islands_.size()));
+  p.migrants = migrants_before_ + (transport_ ? transport_->sent() : 0);
+  p.restarts = restarts_;
   return p;
 }
 
@@ -527,37 +656,63 @@ std::string Search::configDigest() const {
 }
 
 nlohmann::json Search::checkpoint() const {
-  nlohmann::json pop = nlohmann::json::array();
-  for (const auto& ind : pop_)
-    pop.push_back(
-        {{"program", toJson(ind.program)}, {"obj", objToJson(ind.obj)}, {"refined", ind.refined}});
+  nlohmann::json islands = nlohmann::json::array();
+  for (const auto& isl : islands_) {
+    nlohmann::json pop = nlohmann::json::array();
+    for (const auto& ind : isl.pop)
+      pop.push_back({{"program", toJson(ind.program)},
+                     {"obj", objToJson(ind.obj)},
+                     {"refined", ind.refined}});
+    // Ranks and crowding come from the last survival's pool (see survive()), which a resumed
+    // run cannot recompute: they are stored. JSON has no infinity: boundary points are null.
+    nlohmann::json crowd = nlohmann::json::array();
+    for (double c : isl.crowd) crowd.push_back(std::isfinite(c) ? nlohmann::json(c) : nullptr);
+    islands.push_back({{"population", pop},
+                       {"rank", isl.rank},
+                       {"crowd", crowd},
+                       {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
+                       {"stagnant", isl.stagnant}});
+  }
   nlohmann::json arch = nlohmann::json::array();
   for (const auto& m : archive_.members())
     arch.push_back(
         {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
-  return {{"format", "lgp-checkpoint/1"},
+  return {{"format", "lgp-checkpoint/2"},
           {"config_digest", configDigest()},
           {"initialized", initialized_},
           {"generation", generation_},
           {"evaluations", evaluations_},
           {"elapsed_s", elapsed()},
-          {"population", pop},
+          {"migrants", migrants_before_ + (transport_ ? transport_->sent() : 0)},
+          {"restarts", restarts_},
+          {"islands", islands},
           {"archive", arch}};
 }
 
 Status Search::restore(const nlohmann::json& st) {
   try {
-    if (st.value("format", "") != "lgp-checkpoint/1")
+    if (st.value("format", "") != "lgp-checkpoint/2")
       return Status::error("checkpoint: unknown format");
     if (st.at("config_digest").get<std::string>() != configDigest())
       return Status::error("checkpoint: made with a different config or table");
-    std::vector<Individual> pop;
-    for (const auto& j : st.at("population")) {
-      auto p = programFromJson(j.at("program"), shape_);
-      if (!p) return Status::error("checkpoint: population: " + p.error());
-      auto o = objFromJson(j.at("obj"));
-      if (!o) return Status::error("checkpoint: population: " + o.error());
-      pop.push_back({*p, *o, j.value("refined", false)});
+    std::vector<Island> islands;
+    for (const auto& ji : st.at("islands")) {
+      Island isl;
+      for (const auto& j : ji.at("population")) {
+        auto p = programFromJson(j.at("program"), shape_);
+        if (!p) return Status::error("checkpoint: population: " + p.error());
+        auto o = objFromJson(j.at("obj"));
+        if (!o) return Status::error("checkpoint: population: " + o.error());
+        isl.pop.push_back({*p, *o, j.value("refined", false)});
+      }
+      isl.rank = ji.at("rank").get<std::vector<int>>();
+      for (const auto& c : ji.at("crowd"))
+        isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
+      if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
+        return Status::error("checkpoint: island ranks do not match its population");
+      isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
+      isl.stagnant = ji.at("stagnant").get<int>();
+      islands.push_back(std::move(isl));
     }
     Archive arch(cfg_.search.archive);
     auto& members = arch.mutableMembers();
@@ -568,7 +723,12 @@ Status Search::restore(const nlohmann::json& st) {
       if (!o) return Status::error("checkpoint: archive: " + o.error());
       members.push_back({*p, *o, j.value("refined", false)});
     }
-    pop_ = std::move(pop);
+    if (st.at("initialized").get<bool>() && islands.empty())
+      return Status::error("checkpoint: no islands");
+    islands_ = std::move(islands);
+    transport_ = std::make_unique<LocalTransport>(static_cast<int>(islands_.size()));
+    migrants_before_ = st.at("migrants").get<uint64_t>();
+    restarts_ = st.at("restarts").get<uint64_t>();
     archive_ = std::move(arch);
     initialized_ = st.at("initialized").get<bool>();
     generation_ = st.at("generation").get<int>();
@@ -576,7 +736,6 @@ Status Search::restore(const nlohmann::json& st) {
     elapsed_before_ = st.at("elapsed_s").get<double>();
     start_ = std::chrono::steady_clock::now();
     session_evals_ = 0;
-    if (!pop_.empty()) rankPopulation();
   } catch (const nlohmann::json::exception& e) {
     return Status::error(std::string("checkpoint: ") + e.what());
   }

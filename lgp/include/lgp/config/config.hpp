@@ -109,8 +109,19 @@ struct MultiOutputConfig {
                               // cost <= this; 0 = the knee of its front (see two_step.hpp)
 };
 
+// Islands (demes): see lgp/search/migration.hpp.
+struct IslandConfig {
+  int count = 4;                // islands; the population is split evenly between them, and
+                                // at most population / 4 islands are used (4 individuals each)
+  int migration_interval = 10;  // generations between migrations; 0 = islands never exchange
+  int migrants = 4;             // first-front members each island sends per migration
+  int restart_after = 0;        // generations without a better island best before the island
+                                // restarts from random programs and archive members; 0 = never
+  Status validate() const;
+};
+
 struct SearchConfig {
-  int population = 400;          // individuals per generation (>= 4)
+  int population = 400;          // individuals per generation, all islands together
   int generations = 100;         // budget; 0 = unlimited (then another budget must be set)
   uint64_t max_evaluations = 0;  // budget in program evaluations; 0 = unlimited
   double wall_time_s = 0;        // budget in seconds; 0 = unlimited
@@ -124,6 +135,7 @@ struct SearchConfig {
   bool seed_references = false;  // start from the config's reference formulas (those that fit
                                  // the program shape) besides random programs
   MultiOutputConfig multi_output;
+  IslandConfig islands;
   VariationConfig variation;
   NelderMeadSchedule refine;
   ArchiveConfig archive;

@@ -1,18 +1,24 @@
-// The search: NSGA-II over (error, cost, discontinuity) with a bounded Pareto archive and
-// Nelder-Mead constant refinement (seed 000 sections 3.2.2, 5.1, 5.2).
+// The search: NSGA-II over (error, cost, discontinuity) on K islands, with one bounded Pareto
+// archive, derivative-based (Levenberg-Marquardt) and derivative-free (Nelder-Mead, DE)
+// constant refinement.
 //
 // One generation (step()):
-//   1. N offspring, each from binary tournaments on (rank, crowding), two-segment crossover
-//      and micro/macro mutation. Offspring i of generation g draws from an RNG seeded with
-//      hash(seed, g, i), so variation is independent of thread scheduling.
+//   1. Each island breeds its share of the N offspring: binary tournaments on (rank,
+//      crowding), two-segment crossover and micro/macro mutation. Offspring i of generation g
+//      draws from an RNG seeded with hash(seed, g, i), so variation is independent of thread
+//      scheduling. A stagnant island (islands.restart_after) breeds random programs and archive
+//      members instead.
 //   2. Offspring are scored in parallel (OpenMP over programs, one Scorer per thread).
-//   3. A share of offspring gets a quick Nelder-Mead polish of its effective constants (this is
-//      what lets a right structure with wrong constants survive).
-//   4. Parents + offspring are ranked (duplicates of an objective vector go last), and the
-//      best N by (rank, crowding) survive (elitism).
-//   5. Offspring enter the archive; every `archive_period` generations archive members not yet
-//      fully refined get Nelder-Mead with restarts and the full budget, and are re-inserted.
-// Budgets: generations, evaluations (Nelder-Mead evaluations included), wall time, or a stop
+//   3. A share of offspring gets its constants fitted (Levenberg-Marquardt with exact
+//      Jacobians, then a quick Nelder-Mead polish where that did not help): this is what lets
+//      a right structure with wrong constants survive.
+//   4. Per island, parents + offspring are ranked (duplicates of an objective vector go last)
+//      and the best by (rank, crowding) survive (elitism).
+//   5. Offspring enter the archive. Every islands.migration_interval generations each island
+//      sends first-front members to the next (migration.hpp); every `archive_period`
+//      generations archive members not yet fully refined get the full refinement and rejoin
+//      the islands.
+// Budgets: generations, evaluations (refinement evaluations included), wall time, or a stop
 // request (Ctrl-C); the check happens between generations.
 //
 // Determinism: with the same config, seed and thread count (and no wall-time budget) the
@@ -24,6 +30,7 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -37,6 +44,7 @@
 #include "lgp/core/table.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
+#include "lgp/search/migration.hpp"
 #include "lgp/search/pareto.hpp"
 
 namespace lgp {
@@ -51,6 +59,9 @@ struct SearchProgress {
   std::vector<std::pair<double, double>> best_at_cost;  // (cost level, best error at <= level)
   bool finished = false;
   std::string stop_reason;  // "generations", "evaluations", "wall_time", "stopped"
+  int islands = 1;          // islands in use
+  uint64_t migrants = 0;    // members sent between islands so far
+  uint64_t restarts = 0;    // island restarts after stagnation so far
 };
 
 // A front member with everything the outputs need.
@@ -111,13 +122,24 @@ class Search {
     Objectives obj;
     bool refined = false;  // fully refined (archive-level Nelder-Mead)
   };
+  // One deme: an NSGA-II population with its ranks and crowding distances.
+  struct Island {
+    std::vector<Individual> pop;
+    std::vector<int> rank;
+    std::vector<double> crowd;
+    double best = std::numeric_limits<double>::infinity();  // lowest error seen here
+    int stagnant = 0;  // generations since `best` last improved
+  };
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
                    uint64_t stream);
   Objectives score(Scorer& s, const Program& p) const;
   void refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals, bool full) const;
-  void survive(std::vector<Individual>& pool);
-  void rankPopulation();
-  int tournament(Rng& rng) const;
+  // Replaces the island's population by the best `keep` of pool (NSGA-II elitism).
+  static void survive(Island& isl, std::vector<Individual>& pool, int keep);
+  static void rankIsland(Island& isl);
+  int tournament(const Island& isl, Rng& rng) const;
+  int islandSize(int k) const;  // population share of island k
+  void migrate(int generation);
   void refineArchive();
   double elapsed() const;
   std::string stopReason() const;
@@ -137,9 +159,10 @@ class Search {
   int threads_ = 1;
 
   std::vector<std::unique_ptr<Scorer>> scorers_;  // one per OpenMP thread
-  std::vector<Individual> pop_;
-  std::vector<int> rank_;
-  std::vector<double> crowd_;
+  std::vector<Island> islands_;
+  std::unique_ptr<MigrationTransport> transport_;
+  uint64_t restarts_ = 0;
+  uint64_t migrants_before_ = 0;  // migrants of earlier sessions (restored checkpoints)
   Archive archive_;
   int generation_ = 0;
   bool initialized_ = false;
