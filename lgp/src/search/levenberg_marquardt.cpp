@@ -1,0 +1,525 @@
+// Levenberg-Marquardt constant fitting (see levenberg_marquardt.hpp): our residuals and
+// Jacobian, Eigen's solver.
+#include "lgp/search/levenberg_marquardt.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <unsupported/Eigen/LevenbergMarquardt>
+#include <utility>
+#include <vector>
+
+#include "lgp/eval/jacobian.hpp"
+#include "lgp/eval/semantics.hpp"
+
+namespace lgp {
+
+Status LevenbergMarquardtConfig::validate() const {
+  if (max_iterations < 1) return Status::error("max_iterations: must be >= 1");
+  if (!(tolerance >= 0)) return Status::error("tolerance: must be >= 0");
+  return Status::ok();
+}
+
+namespace {
+
+// Residual norm reported for a point whose residuals or constants are not all finite: the
+// solver never accepts such a step (it needs a decrease) and shrinks its trust region.
+constexpr double kHugeResidual = 1e300;
+// Relative step size below which the solver stops: constants are float32, so smaller steps
+// round to the same program.
+constexpr double kXtol = 1e-7;
+// Sum-of-squares changes below kNoiseFloor * sum(w y^2) are float32 rounding noise (a few ulp
+// of every prediction, squared): the solver stops there instead of chasing it.
+constexpr double kNoiseFloor = 1e-12;
+// Eigenvalues of J'J below this fraction of the largest are treated as zero: J is float32
+// (relative error ~1e-7, squared 1e-14), so those directions are not resolved.
+constexpr double kRankTolerance = 1e-13;
+// Residual passes allowed per iteration on average (rejected trial steps cost one each).
+constexpr int kEvaluationsPerIteration = 4;
+
+// a * b + c, fused where the ISA has it (one rounding, twice the throughput).
+inline double fmadd(double a, double b, double c) {
+#if defined(__FMA__)
+  return __builtin_fma(a, b, c);
+#else
+  return a * b + c;
+#endif
+}
+
+// g = invertTransform(T, s) and dg/ds, with the protected inverses of objectives.cpp. exp is
+// taken in float32 (the vectorised exp the Scorer uses); the rest in double.
+template <TargetTransform T>
+inline void inverse(double s, double& g, double& dg) {
+  if constexpr (T == TargetTransform::None) {
+    g = s;
+    dg = 1.0;
+  } else if constexpr (T == TargetTransform::Log) {
+    const float t = static_cast<float>(s) * static_cast<float>(sem::kLog2E);
+    g = sem::pexp2(t);
+    dg = std::fabs(t) < kExpClamp ? g : 0.0;
+  } else if constexpr (T == TargetTransform::Sqrt) {
+    g = s > 0 ? s * s : 0.0;
+    dg = s > 0 ? 2 * s : 0.0;
+  } else {
+    g = 1.0 / sem::guard(s);
+    dg = std::fabs(s) < static_cast<double>(kDivGuard) ? 0.0 : -g * g;
+  }
+}
+
+// Calls fn(std::integral_constant<TargetTransform, t>{}).
+template <class Fn>
+void withTransform(TargetTransform t, Fn&& fn) {
+  using TT = TargetTransform;
+  switch (t) {
+    case TT::None:
+      return fn(std::integral_constant<TT, TT::None>{});
+    case TT::Log:
+      return fn(std::integral_constant<TT, TT::Log>{});
+    case TT::Sqrt:
+      return fn(std::integral_constant<TT, TT::Sqrt>{});
+    case TT::Rcp:
+      return fn(std::integral_constant<TT, TT::Rcp>{});
+  }
+}
+
+}  // namespace
+
+struct ConstantFitter::Impl {
+  // Eigen's functor interface over the compressed problem (see pass()): n + 1 residuals.
+  struct Functor {
+    using Scalar = double;
+    using InputType = Eigen::VectorXd;
+    using ValueType = Eigen::VectorXd;
+    using JacobianType = Eigen::MatrixXd;
+    using QRSolver = Eigen::ColPivHouseholderQR<JacobianType>;
+    enum { InputsAtCompileTime = Eigen::Dynamic, ValuesAtCompileTime = Eigen::Dynamic };
+    Impl* self;
+    int inputs() const { return static_cast<int>(self->num_vars); }
+    int values() const { return static_cast<int>(self->num_vars + 1); }
+    int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
+      f.setZero(values());
+      f[0] = self->pass(x, false);
+      return 0;
+    }
+    int df(const Eigen::VectorXd& x, Eigen::MatrixXd& j) const {
+      self->pass(x, true);
+      self->compress(j, self->lm.fvec());
+      return 0;
+    }
+  };
+
+  Impl(const Dataset& d, const ErrorConfig& c) : ds(d), functor{this}, lm(functor) {
+    const int k = ds.numOutputs();
+    transforms = c.transforms;
+    transforms.resize(k, TargetTransform::None);
+    scaling = c.linear_scaling;
+    rows = ds.rows();
+    bs = ds.blockSize();
+    // Channels as sparse (output, weight) lists; without channels, one per output.
+    if (c.channels.empty()) {
+      for (int o = 0; o < k; ++o) channels.push_back({{o, 1.0}});
+    } else {
+      for (const ErrorChannel& ch : c.channels) {
+        channels.emplace_back();
+        for (int o = 0; o < k && o < static_cast<int>(ch.weights.size()); ++o)
+          if (ch.weights[o] != 0) channels.back().push_back({o, ch.weights[o]});
+      }
+    }
+    sqrt_w.resize(rows);
+    for (size_t r = 0; r < rows; ++r) sqrt_w[r] = std::sqrt(ds.weight()[r]);
+    swy.assign(channels.size() * rows, 0.0);
+    double sy2 = 0;
+    for (size_t ch = 0; ch < channels.size(); ++ch)
+      for (size_t r = 0; r < rows; ++r) {
+        double y = 0;
+        for (const auto& [o, w] : channels[ch]) y += w * ds.target(o)[r];
+        swy[ch * rows + r] = sqrt_w[r] * y;
+        sy2 += swy[ch * rows + r] * swy[ch * rows + r];
+      }
+    noise_floor = kNoiseFloor * sy2;
+    if (scaling) {
+      raw.resize(static_cast<size_t>(k) * ds.paddedRows());
+      fit_target.resize(static_cast<size_t>(k) * ds.paddedRows());
+      for (int o = 0; o < k; ++o)
+        for (size_t r = 0; r < ds.paddedRows(); ++r)
+          fit_target[o * ds.paddedRows() + r] = applyTransform(transforms[o], ds.target(o)[r]);
+    }
+    q.resize(k);
+    fv.resize(k);
+    // Outputs alone in a single-output channel: their inverse transform fuses into the
+    // residual loop.
+    alone.assign(k, 0);
+    std::vector<int> uses(k, 0);
+    for (const auto& ch : channels)
+      for (const auto& [o, w] : ch) uses[o] += ch.size() == 1 ? 1 : 2;
+    for (int o = 0; o < k; ++o) alone[o] = uses[o] == 1;
+    g.resize(static_cast<size_t>(k) * bs);
+    gp.resize(static_cast<size_t>(k) * bs);
+    res_block.resize(channels.size() * bs);
+    num_res = static_cast<Eigen::Index>(channels.size() * rows);
+  }
+
+  // Closed-form weighted least squares of T(y) on the raw outputs (as Scorer::runBuffered):
+  // the starting a_o, b_o of linear scaling.
+  void initialScales(Eigen::VectorXd& x, int p0) {
+    const size_t n = ds.paddedRows();
+    for (size_t b = 0; b < ds.numBlocks(); ++b) {
+      jac.evalBlock(b, false);
+      for (int o = 0; o < jac.numOutputs(); ++o)
+        std::copy_n(jac.value(o), bs, raw.data() + o * n + b * bs);
+    }
+    ++evaluations;
+    const double* w = ds.weight();
+    for (int o = 0; o < jac.numOutputs(); ++o) {
+      const float* v = raw.data() + o * n;
+      const double* y = fit_target.data() + o * n;
+      double sw = 0, sf = 0, sy = 0;
+      for (size_t r = 0; r < n; ++r) {
+        sw += w[r];
+        sf += w[r] * v[r];
+        sy += w[r] * y[r];
+      }
+      const double mf = sf / sw, my = sy / sw;
+      double sff = 0, sfy = 0;
+      for (size_t r = 0; r < n; ++r) {
+        const double df = v[r] - mf;
+        sff += w[r] * df * df;
+        sfy += w[r] * df * (y[r] - my);
+      }
+      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
+      double b0 = my - a * mf;
+      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
+        a = 0.0;
+        b0 = std::isfinite(my) ? my : 0.0;
+      }
+      x[p0 + 2 * o] = a;
+      x[p0 + 2 * o + 1] = b0;
+    }
+    raw_valid = true;
+  }
+
+  // One pass over the rows at x. Returns the residual norm (kHugeResidual if a residual or a
+  // constant is not finite). With `jacobian`, also accumulates the Gram matrix gram = A'A of
+  // A = [J | r] (rows x (n + 1)), block by block, without storing A.
+  double pass(const Eigen::VectorXd& x, bool jacobian) {
+    const int np = jac.numParameters();
+    const int k = jac.numOutputs();
+    const Eigen::Index nv = x.size();
+    const size_t n = rows;
+    const size_t nc = channels.size();
+    bool ok = true;
+    for (int p = 0; p < np; ++p) ok = ok && std::isfinite(static_cast<float>(x[p]));
+    for (Eigen::Index v = np; v < nv; ++v) ok = ok && std::isfinite(x[v]);
+    // The first residual pass of a fit with linear scaling reuses initialScales' values.
+    const bool from_raw = raw_valid && !jacobian;
+    raw_valid = false;
+    if (jacobian) {
+      gram.setZero(nv + 1, nv + 1);
+      block_a.resize(nc * bs * (nv + 1));
+    }
+    if (!ok) {
+      ++non_finite;
+      return kHugeResidual;
+    }
+    if (!from_raw) {
+      jac.setParameters(x.data());
+      ++evaluations;
+    }
+    double sse = 0;
+    for (size_t blk = 0; blk * bs < n; ++blk) {
+      const size_t r0 = blk * bs;
+      const int nr = static_cast<int>(std::min<size_t>(bs, n - r0));
+      const int na = static_cast<int>(nc) * nr;  // rows of this block in A: channel-major
+      if (!from_raw) jac.evalBlock(blk, jacobian);
+      const double* sw = sqrt_w.data() + r0;
+      // Per output: g_o and q_o = sqrt(w) dg_o/ds_o (q_o = sqrt(w) without a transform).
+      // Outputs alone in their channel get them fused into the residual loop below.
+      for (int o = 0; o < k; ++o) {
+        fv[o] = from_raw ? raw.data() + o * ds.paddedRows() + r0 : jac.value(o);
+        q[o] = transforms[o] == TargetTransform::None ? sw : gp.data() + o * bs;
+        if (alone[o]) continue;
+        const double a = scaling ? x[np + 2 * o] : 1.0, b = scaling ? x[np + 2 * o + 1] : 0.0;
+        withTransform(transforms[o], [&](auto tt) {
+          const float* fo = fv[o];
+          double* __restrict go = g.data() + o * bs;
+          double* __restrict qo = gp.data() + o * bs;
+#pragma omp simd
+          for (int i = 0; i < nr; ++i) {
+            double dg;
+            inverse<decltype(tt)::value>(a * static_cast<double>(fo[i]) + b, go[i], dg);
+            qo[i] = sw[i] * dg;
+          }
+        });
+      }
+      for (size_t c = 0; c < nc; ++c) {
+        double* out = jacobian ? block_a.data() + nv * na + c * nr : res_block.data() + c * bs;
+        const double* t = swy.data() + c * n + r0;
+        const auto& terms = channels[c];
+        if (terms.size() == 1 && alone[terms[0].first]) {  // the common case: one loop
+          const int o = terms[0].first;
+          const double w = terms[0].second;
+          const double a = scaling ? x[np + 2 * o] : 1.0, b = scaling ? x[np + 2 * o + 1] : 0.0;
+          withTransform(transforms[o], [&](auto tt) {
+            const float* fo = fv[o];
+            double* __restrict qo = gp.data() + o * bs;
+            double acc = 0;
+#pragma omp simd reduction(+ : acc)
+            for (int i = 0; i < nr; ++i) {
+              double go, dg;
+              inverse<decltype(tt)::value>(a * static_cast<double>(fo[i]) + b, go, dg);
+              out[i] = sw[i] * (w * go) - t[i];
+              acc += out[i] * out[i];
+              if constexpr (decltype(tt)::value != TargetTransform::None) qo[i] = sw[i] * dg;
+            }
+            sse += acc;
+          });
+          continue;
+        }
+        std::fill_n(out, nr, 0.0);
+        for (const auto& [o, w] : terms) {
+          const double* go = g.data() + o * bs;
+#pragma omp simd
+          for (int i = 0; i < nr; ++i) out[i] += w * go[i];
+        }
+#pragma omp simd reduction(+ : sse)
+        for (int i = 0; i < nr; ++i) {
+          out[i] = sw[i] * out[i] - t[i];
+          sse += out[i] * out[i];
+        }
+      }
+      if (!jacobian) continue;
+      // d r / d c_k = sum_o W q_o a_o df_o/dc_k, d r / d a_o = W q_o f_o, d r / d b_o = W q_o.
+      for (size_t c = 0; c < nc; ++c) {
+        const std::vector<int>& act = active[c];
+        for (size_t j = 0; j + 1 < act.size(); ++j) {  // the last one is the residual
+          const int v = act[j];
+          double* out = block_a.data() + static_cast<size_t>(v) * na + c * nr;
+          bool first = true;  // the first contribution assigns, later ones add
+          for (const auto& [o, w] : channels[c]) {
+            const double* qo = q[o];
+            const float* d;  // the factor beside q: df_o/dc_v, f_o, or none (1)
+            double sc = w;
+            if (v < np) {
+              if (!jac.hasDerivative(o, v)) continue;
+              d = jac.derivative(o, v);
+              if (scaling) sc *= x[np + 2 * o];
+            } else if (v == np + 2 * o) {
+              d = jac.value(o);
+            } else if (v == np + 2 * o + 1) {
+              d = nullptr;
+            } else {
+              continue;
+            }
+            if (d == nullptr && first) {
+#pragma omp simd
+              for (int i = 0; i < nr; ++i) out[i] = sc * qo[i];
+            } else if (d == nullptr) {
+#pragma omp simd
+              for (int i = 0; i < nr; ++i) out[i] += sc * qo[i];
+            } else if (first) {
+#pragma omp simd
+              for (int i = 0; i < nr; ++i) out[i] = sc * qo[i] * d[i];
+            } else {
+#pragma omp simd
+              for (int i = 0; i < nr; ++i) out[i] += sc * qo[i] * d[i];
+            }
+            first = false;
+          }
+        }
+        accumulateGram(act, block_a.data() + c * nr, na, nr);
+      }
+    }
+    if (!std::isfinite(sse)) {
+      ++non_finite;
+      return kHugeResidual;
+    }
+    return std::sqrt(sse);
+  }
+
+  // Columns of A = [J | r] that can be nonzero in channel c's rows (ascending; the residual
+  // last): a channel sees only the constants and scales of its outputs.
+  void findActiveColumns() {
+    const int np = jac.numParameters();
+    active.assign(channels.size(), {});
+    for (size_t c = 0; c < channels.size(); ++c) {
+      for (Eigen::Index v = 0; v < num_vars; ++v) {
+        bool on = false;
+        for (const auto& [o, w] : channels[c])
+          on = on || (v < np ? jac.hasDerivative(o, static_cast<int>(v)) : (v - np) / 2 == o);
+        if (on) active[c].push_back(static_cast<int>(v));
+      }
+      active[c].push_back(static_cast<int>(num_vars));
+    }
+  }
+
+  // gram += S'S for one channel's rows of a block, S = the active columns of A there (column
+  // v starts at a0 + v * na and has nr rows). A column whose squared norm is not finite (a
+  // derivative overflowed float: rsqrt near kMinPos, say) counts as flat.
+  void accumulateGram(const std::vector<int>& act, const double* a0, int na, int nr) {
+    const int m = static_cast<int>(act.size());
+    col_ptr.resize(m);
+    for (int p = 0; p < m; ++p) col_ptr[p] = a0 + static_cast<size_t>(act[p]) * na;
+    seg_gram.resize(m, m);
+    for (int p = 0; p < m; ++p) {
+      const double* cu = col_ptr[p];
+      int t = p;
+      for (; t + 3 < m; t += 4) {  // four products per load of cu, four independent sums
+        const double *c0 = col_ptr[t], *c1 = col_ptr[t + 1], *c2 = col_ptr[t + 2],
+                     *c3 = col_ptr[t + 3];
+        double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+#pragma omp simd reduction(+ : s0, s1, s2, s3)
+        for (int i = 0; i < nr; ++i) {
+          s0 = fmadd(cu[i], c0[i], s0);
+          s1 = fmadd(cu[i], c1[i], s1);
+          s2 = fmadd(cu[i], c2[i], s2);
+          s3 = fmadd(cu[i], c3[i], s3);
+        }
+        seg_gram(p, t) = s0;
+        seg_gram(p, t + 1) = s1;
+        seg_gram(p, t + 2) = s2;
+        seg_gram(p, t + 3) = s3;
+      }
+      for (; t + 1 < m; t += 2) {
+        const double *c0 = col_ptr[t], *c1 = col_ptr[t + 1];
+        double s0 = 0, s1 = 0;
+#pragma omp simd reduction(+ : s0, s1)
+        for (int i = 0; i < nr; ++i) {
+          s0 = fmadd(cu[i], c0[i], s0);
+          s1 = fmadd(cu[i], c1[i], s1);
+        }
+        seg_gram(p, t) = s0;
+        seg_gram(p, t + 1) = s1;
+      }
+      if (t < m) {
+        const double* c0 = col_ptr[t];
+        double s0 = 0;
+#pragma omp simd reduction(+ : s0)
+        for (int i = 0; i < nr; ++i) s0 = fmadd(cu[i], c0[i], s0);
+        seg_gram(p, t) = s0;
+      }
+    }
+    for (int p = 0; p < m; ++p) {
+      if (std::isfinite(seg_gram(p, p))) continue;
+      for (int t = 0; t < m; ++t) seg_gram(std::min(p, t), std::max(p, t)) = 0.0;
+    }
+    for (int p = 0; p < m; ++p)
+      for (int t = p; t < m; ++t)
+        gram(act[p], act[t]) += std::isfinite(seg_gram(p, t)) ? seg_gram(p, t) : 0.0;
+  }
+
+  // Hands the solver an (n + 1) x n Jacobian and residual with the same linear least-squares
+  // model as [J | r] (the same J'J, J'r and |r|), so the same steps, at O(n^2) cost per solver
+  // step instead of O(rows n^2) (as MINPACK's lmstr keeps only an n x n factor; More, Garbow &
+  // Hillstrom 1980). With J'J = V D V': Jc = [D^1/2 V'; 0], rc = [D^-1/2 V' J'r; d]. Eigenvalues
+  // below kRankTolerance * max are null directions (J is float32: those are noise). d, beside
+  // the zero last row of Jc, only completes the norm: the solver's QR never mixes it in.
+  void compress(Eigen::MatrixXd& jc, Eigen::VectorXd& rc) {
+    const Eigen::Index nv = gram.rows() - 1;
+    const Eigen::MatrixXd jtj = gram.topLeftCorner(nv, nv).selfadjointView<Eigen::Upper>();
+    eig.compute(jtj);
+    const Eigen::VectorXd& lambda = eig.eigenvalues();
+    const Eigen::MatrixXd& vecs = eig.eigenvectors();
+    const double floor = kRankTolerance * std::max(lambda.maxCoeff(), 0.0);
+    const Eigen::VectorXd vtg = vecs.transpose() * gram.col(nv).head(nv);
+    jc.setZero(nv + 1, nv);
+    rc.setZero(nv + 1);
+    double head2 = 0;
+    for (Eigen::Index i = 0; i < nv; ++i) {
+      if (!(lambda[i] > floor) || lambda[i] <= 0) continue;
+      const double s = std::sqrt(lambda[i]);
+      jc.row(i) = s * vecs.col(i).transpose();
+      rc[i] = vtg[i] / s;
+      head2 += rc[i] * rc[i];
+    }
+    rc[nv] = std::sqrt(std::max(gram(nv, nv) - head2, 0.0));
+  }
+
+  const Dataset& ds;
+  JacobianEvaluator jac;
+  std::vector<TargetTransform> transforms;
+  bool scaling = false;
+  size_t rows = 0;
+  int bs = 0;
+  std::vector<std::vector<std::pair<int, double>>> channels;  // (output, weight), nonzero
+  std::vector<double> sqrt_w;                                 // per real row
+  std::vector<double> swy;         // [channel * rows + r]: sqrt(w) * channel target
+  std::vector<double> fit_target;  // linear scaling: T_o(y) per output, padded rows
+  std::vector<float> raw;          // linear scaling: raw outputs of the starting constants
+  bool raw_valid = false;          // raw holds the outputs at the point being evaluated
+  std::vector<double> g, gp;       // per output, one block: g_o and q_o
+  std::vector<double> res_block;   // per channel, one block: residuals of a trial pass
+  std::vector<double> block_a;     // one block of A = [J | r], column-major, channel-major rows
+  std::vector<std::vector<int>> active;  // per channel: columns of A that can be nonzero
+  std::vector<const double*> q;          // per output: q_o of the current block
+  std::vector<const float*> fv;          // per output: f_o of the current block
+  std::vector<uint8_t> alone;            // per output: its channel's only output, used once
+  std::vector<const double*> col_ptr;    // accumulateGram's columns
+  Eigen::MatrixXd gram;                  // A'A (upper triangle), (n + 1) x (n + 1)
+  Eigen::MatrixXd seg_gram;              // one channel segment's share of gram
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+  Eigen::Index num_vars = 0, num_res = 0;
+  double noise_floor = 0;  // kNoiseFloor * sum(w y^2) over channels
+  int evaluations = 0, non_finite = 0;
+  Eigen::VectorXd point;  // the solver's current point
+  Functor functor;
+  Eigen::LevenbergMarquardt<Functor> lm;
+};
+
+ConstantFitter::ConstantFitter(const Dataset& ds, const ErrorConfig& cfg)
+    : impl_(std::make_unique<Impl>(ds, cfg)) {}
+ConstantFitter::~ConstantFitter() = default;
+ConstantFitter::ConstantFitter(ConstantFitter&&) noexcept = default;
+
+ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig& c) {
+  Impl& m = *impl_;
+  ConstantFitResult res;
+  m.jac.bind(p, m.ds);
+  const int np = m.jac.numParameters();
+  if (np == 0) return res;
+  const int k = m.jac.numOutputs();
+  m.num_vars = np + (m.scaling ? 2 * k : 0);
+  if (m.num_res <= m.num_vars || k != m.ds.numOutputs()) return res;
+  m.evaluations = 0;
+  m.non_finite = 0;
+  m.point.resize(m.num_vars);
+  for (int i = 0; i < np; ++i) m.point[i] = p.constants[m.jac.parameters()[i]];
+  m.findActiveColumns();
+  if (m.scaling) m.initialScales(m.point, np);
+
+  auto& lm = m.lm;
+  lm.setXtol(kXtol);
+  lm.setGtol(0.0);
+  lm.setMaxfev(1 + kEvaluationsPerIteration * c.max_iterations);
+  auto status = lm.minimizeInit(m.point);
+  res.evaluations = m.evaluations;
+  if (status != Eigen::LevenbergMarquardtSpace::NotStarted || !(lm.fnorm() < kHugeResidual))
+    return res;
+  m.non_finite = 0;
+  res.sse_before = lm.fnorm() * lm.fnorm();
+  res.sse_after = res.sse_before;
+  double sse = res.sse_before;
+  while (res.iterations < c.max_iterations) {
+    // Eigen's ftol is relative to the current sum of squares; raise it to the noise floor.
+    lm.setFtol(std::max(c.tolerance, sse > 0 ? m.noise_floor / sse : 0.0));
+    status = lm.minimizeOneStep(m.point);
+    ++res.iterations;
+    const double prev = sse;
+    sse = lm.fnorm() * lm.fnorm();
+    if (status != Eigen::LevenbergMarquardtSpace::Running) break;
+    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) break;
+  }
+  res.evaluations = m.evaluations;
+  res.non_finite = m.non_finite;
+  // Accepted steps always lower the norm, so fnorm() is the sum at x, evaluated with x's
+  // float constants, and finite.
+  if (sse < res.sse_before) {
+    res.sse_after = sse;
+    res.improved = true;
+    for (int i = 0; i < np; ++i)
+      p.constants[m.jac.parameters()[i]] = static_cast<float>(m.point[i]);
+  }
+  return res;
+}
+
+}  // namespace lgp
