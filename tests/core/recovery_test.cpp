@@ -52,30 +52,44 @@ double bestR2(const Table& t, std::vector<Op> ops, int generations, uint64_t see
 
 const std::vector<Op> kArith = {Op::Add, Op::Sub, Op::Mul, Op::Div, Op::Mad, Op::Neg, Op::Square};
 
+// Recovered runs out of seeds 1..n. A rate over seeds, not one lucky seed: the search is
+// stochastic, and a regression shows up as a lower rate.
+int recovered(const Table& t, const std::vector<Op>& ops, int generations, int seeds) {
+  int hits = 0;
+  for (int seed = 1; seed <= seeds; ++seed) hits += bestR2(t, ops, generations, seed) > 0.99999;
+  return hits;
+}
+
 TEST(Recovery, Exp2OfPolynomial) {
-  // The bias term of the split-sum DFG fit of seed 000 section 5.3: 2^-(7 mu + 4 r^2).
+  // The bias term of the split-sum DFG fit by Iwanicki & Pesce (2015): 2^-(7 mu + 4 r^2).
   const Table t = sample(24, 0, 1, 1, [](double x, double y) {
     return std::vector<double>{std::exp2(-(7 * x + 4 * y * y))};
   });
   auto ops = kArith;
   ops.push_back(Op::Exp2);
-  // The hardest of the four: at this budget seeds 1 and 3 of 1..7 recover it exactly; the
-  // others stop at RMSE ~0.01-0.02 with rational stand-ins (see bench/ for longer runs).
-  EXPECT_GT(bestR2(t, ops, 250, 1), 0.99999);
+  EXPECT_GE(recovered(t, ops, 120, 6), 4);
 }
 
 TEST(Recovery, RationalWithDivision) {
   // A ratio of the form x / (x + y) (e.g. a Smith-Schlick masking term with k = y / x).
   const Table t =
       sample(24, 0.05, 1, 1, [](double x, double y) { return std::vector<double>{x / (x + y)}; });
-  EXPECT_GT(bestR2(t, kArith, 250, 3), 0.99999);
+  EXPECT_GE(recovered(t, kArith, 120, 6), 5);
+}
+
+TEST(Recovery, RationalOfQuadratics) {
+  // Five operations with constants: (x^2 + 0.3 y) / (y^2 + 0.5 x + 0.2).
+  const Table t = sample(24, 0, 1, 1, [](double x, double y) {
+    return std::vector<double>{(x * x + 0.3 * y) / (y * y + 0.5 * x + 0.2)};
+  });
+  EXPECT_GE(recovered(t, kArith, 150, 6), 3);
 }
 
 TEST(Recovery, PolynomialWithConstants) {
   const Table t = sample(24, -1, 1, 1, [](double x, double y) {
     return std::vector<double>{0.75 * x * x - 1.5 * x * y + 0.25};
   });
-  EXPECT_GT(bestR2(t, kArith, 250, 5), 0.99999);
+  EXPECT_GE(recovered(t, kArith, 120, 6), 5);
 }
 
 TEST(Recovery, TwoOutputs) {
@@ -83,7 +97,7 @@ TEST(Recovery, TwoOutputs) {
   const Table t = sample(20, 0, 1, 2, [](double x, double y) {
     return std::vector<double>{x * y + 0.5, x * y - y};
   });
-  EXPECT_GT(bestR2(t, kArith, 300, 11), 0.99999);
+  EXPECT_GE(recovered(t, kArith, 150, 6), 5);
 }
 
 }  // namespace

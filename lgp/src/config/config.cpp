@@ -254,6 +254,8 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
 void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
   Obj o(j, "/search/refine");
   o.number("offspring_share", r.offspring_share, 0, 1);
+  o.integer("lm_iterations", r.lm_iterations, 0, 1 << 20);
+  o.integer("archive_lm_iterations", r.archive_lm_iterations, 0, 1 << 20);
   o.integer("offspring_evaluations", r.offspring_evaluations, 1, 1 << 30);
   o.integer("archive_period", r.archive_period, 0, 1 << 30);
   o.integer("archive_max", r.archive_max, 0, 1 << 20);
@@ -589,6 +591,8 @@ nlohmann::json toJson(const RunConfig& c) {
               {"effective_bias", s.variation.effective_bias}}},
             {"refine",
              {{"offspring_share", s.refine.offspring_share},
+              {"lm_iterations", s.refine.lm_iterations},
+              {"archive_lm_iterations", s.refine.archive_lm_iterations},
               {"offspring_evaluations", s.refine.offspring_evaluations},
               {"archive_period", s.refine.archive_period},
               {"archive_max", s.refine.archive_max},

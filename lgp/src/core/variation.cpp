@@ -219,6 +219,14 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng) {
     if (!later.empty()) {
       Instr& user = p.code[later[rng.below(static_cast<uint32_t>(later.size()))]];
       const int a = static_cast<int>(rng.below(arity(user.op)));
+      // Half the time the new opcode wraps the operand it replaces (x becomes op(x, ..)), so
+      // the program grows around what already works instead of losing that operand.
+      const Operand old = user.args[a];
+      const bool fits = old.kind != OperandKind::Reg || old.index < pos;
+      if (fits && rng.chance(0.5)) {
+        Instr& ins = p.code[pos];
+        ins.args[rng.below(arity(ins.op))] = old;
+      }
       user.args[a] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos)};
     }
   } else if (n > min_len) {

@@ -10,6 +10,7 @@
 
 #include "lgp/core/variation.hpp"
 #include "lgp/search/differential_evolution.hpp"
+#include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/nelder_mead.hpp"
 
 namespace lgp {
@@ -63,10 +64,17 @@ Search::Search(RunConfig cfg, Table table)
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
   threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
   scorers_.resize(threads_);
+  fitters_.resize(threads_);
   start_ = std::chrono::steady_clock::now();
 }
 
 Search::~Search() = default;
+
+ConstantFitter& Search::fitter(int thread) {
+  auto& f = fitters_[thread];
+  if (!f) f = std::make_unique<ConstantFitter>(ds_, err_cfg_);
+  return *f;
+}
 
 Scorer& Search::scorer(int thread) {
   auto& s = scorers_[thread];
@@ -90,11 +98,35 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   return o;
 }
 
-void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals,
-                       bool full) const {
+void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full) {
   const auto slots = effectiveConstants(ind.program);
   if (full) ind.refined = true;
   if (slots.empty() || !ind.obj.finite()) return;
+  Scorer& s = scorer(thread);
+  const auto& sched = cfg_.search.refine;
+  // Derivatives first: Levenberg-Marquardt on the sum of squares, with exact Jacobians. The
+  // scorer has the last word (the objective may be max_abs, or a mean over channels).
+  const int lm_iterations = full ? sched.archive_lm_iterations : sched.lm_iterations;
+  bool lm_helped = false;
+  if (lm_iterations > 0) {
+    Program work = ind.program;
+    LevenbergMarquardtConfig lm;
+    lm.max_iterations = lm_iterations;
+    const auto fit = fitter(thread).fit(work, lm);
+    evals += static_cast<uint64_t>(fit.evaluations);
+    if (fit.improved) {
+      const Objectives o = score(s, work);
+      ++evals;
+      if (o.error < ind.obj.error) {
+        ind.program = std::move(work);
+        ind.obj = o;
+        lm_helped = true;
+      }
+    }
+  }
+  // Nelder-Mead (and DE) where derivatives did not help: constants behind a kink, a
+  // non-smooth metric, or a full refinement that polishes what LM found.
+  if (lm_helped && !full) return;
   Program work = ind.program;
   std::vector<double> x0;
   for (int c : slots) x0.push_back(work.constants[c]);
@@ -110,16 +142,16 @@ void Search::refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& eval
     return s.error(bp);
   };
   Rng rng(seed);
-  NelderMeadConfig nm = cfg_.search.refine.nm;
+  NelderMeadConfig nm = sched.nm;
   if (!full) {
-    nm.max_evaluations = cfg_.search.refine.offspring_evaluations;
+    nm.max_evaluations = sched.offspring_evaluations;
     nm.restarts = 0;
   }
   std::vector<double> start = x0;
-  if (full && cfg_.search.refine.method == RefineMethod::DeThenNm) {
-    // A global step first: Nelder-Mead alone stalls in the nearest basin (seed 000 3.2.1).
+  if (full && sched.method == RefineMethod::DeThenNm) {
+    // A global step first: Nelder-Mead alone stalls in the nearest basin.
     DifferentialEvolutionConfig de;
-    de.max_evaluations = cfg_.search.refine.de_evaluations;
+    de.max_evaluations = sched.de_evaluations;
     const auto d = differentialEvolution(f, x0, de, rng);
     evals += static_cast<uint64_t>(d.evaluations);
     start = d.x;
@@ -145,12 +177,12 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
   uint64_t evals = 0;
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) reduction(+ : evals)
   for (int i = 0; i < n; ++i) {
-    Scorer& s = scorer(omp_get_thread_num());
-    inds[i].obj = score(s, inds[i].program);
+    const int thread = omp_get_thread_num();
+    inds[i].obj = score(scorer(thread), inds[i].program);
     ++evals;
     if (!refine.empty() && refine[i])
-      refineOne(s, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3), evals,
-                false);
+      refineOne(thread, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3),
+                evals, false);
   }
   evaluations_ += evals;
   session_evals_ += evals;
@@ -445,7 +477,7 @@ void Search::refineArchive() {
   const uint64_t stream = (static_cast<uint64_t>(generation_) << 20) | 0xA5A5u;
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1) reduction(+ : evals)
   for (int i = 0; i < n; ++i)
-    refineOne(scorer(omp_get_thread_num()), inds[i],
+    refineOne(omp_get_thread_num(), inds[i],
               hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 4), evals, true);
   evaluations_ += evals;
   session_evals_ += evals;

@@ -85,9 +85,15 @@ enum class RefineMethod : uint8_t {
   DeThenNm     // differential evolution (global) first, then Nelder-Mead from its best point
 };
 
+// Constant refinement. Offspring picked for it (offspring_share) get lm_iterations of
+// Levenberg-Marquardt with exact Jacobians, and a quick Nelder-Mead polish only where that did
+// not improve them; archive members get archive_lm_iterations of LM, then the full
+// derivative-free refinement (`method`).
 struct NelderMeadSchedule {
-  double offspring_share = 0.1;    // share of each generation's offspring given a quick polish
-  int offspring_evaluations = 60;  // budget of that quick polish (no restarts)
+  double offspring_share = 0.1;    // share of each generation's offspring refined
+  int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free
+  int archive_lm_iterations = 30;  // LM iterations per archive refinement; 0 = none
+  int offspring_evaluations = 60;  // budget of the quick Nelder-Mead polish (no restarts)
   int archive_period = 10;         // every N generations, fully refine unrefined archive members
   int archive_max = 32;            // archive members refined per period, at most
   NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients

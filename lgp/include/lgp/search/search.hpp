@@ -44,6 +44,7 @@
 #include "lgp/core/table.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
+#include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/migration.hpp"
 #include "lgp/search/pareto.hpp"
 
@@ -133,7 +134,8 @@ class Search {
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
                    uint64_t stream);
   Objectives score(Scorer& s, const Program& p) const;
-  void refineOne(Scorer& s, Individual& ind, uint64_t seed, uint64_t& evals, bool full) const;
+  // Fits the constants of one individual with thread `thread`'s scorer and fitter.
+  void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full);
   // Replaces the island's population by the best `keep` of pool (NSGA-II elitism).
   static void survive(Island& isl, std::vector<Individual>& pool, int keep);
   static void rankIsland(Island& isl);
@@ -145,6 +147,7 @@ class Search {
   std::string stopReason() const;
   std::string configDigest() const;
   Scorer& scorer(int thread);
+  ConstantFitter& fitter(int thread);
   // The program a member stands for: introns pruned, linear scaling materialised.
   Program finalProgram(Scorer& s, const Program& p) const;
 
@@ -159,6 +162,7 @@ class Search {
   int threads_ = 1;
 
   std::vector<std::unique_ptr<Scorer>> scorers_;  // one per OpenMP thread
+  std::vector<std::unique_ptr<ConstantFitter>> fitters_;
   std::vector<Island> islands_;
   std::unique_ptr<MigrationTransport> transport_;
   uint64_t restarts_ = 0;
