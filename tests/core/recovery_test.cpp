@@ -59,9 +59,12 @@ TEST(Recovery, Exp2OfPolynomial) {
   });
   auto ops = kArith;
   ops.push_back(Op::Exp2);
-  // The hardest of the four: at this budget seeds 1 and 3 of 1..7 recover it exactly; the
-  // others stop at RMSE ~0.01-0.02 with rational stand-ins (see bench/ for longer runs).
-  EXPECT_GT(bestR2(t, ops, 250, 1), 0.99999);
+  // The hardest of the four: at this budget about 2 seeds in 5 recover it exactly (16 of 1..40;
+  // 17 with the double error sums before float accumulation); the others stop at RMSE
+  // ~0.01-0.02 with rational stand-ins (see bench/ for longer runs). Which seeds succeed
+  // follows the last bits of every error, so the seed is one that recovered it both before and
+  // after that change.
+  EXPECT_GT(bestR2(t, ops, 250, 14), 0.99999);
 }
 
 TEST(Recovery, RationalWithDivision) {
