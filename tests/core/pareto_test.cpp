@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "lgp/core/rng.hpp"
@@ -50,6 +51,69 @@ TEST(Pareto, RanksMatchBruteForceDefinition) {
       if (r[j] == r[i]) {
         EXPECT_FALSE(dominates(objs[j], objs[i]));
       }
+    }
+  }
+}
+
+// The crowding distance as first written (log10 inside the comparator): the faster one must
+// give the same distances bit for bit, ties in the same order.
+std::vector<double> referenceCrowding(const std::vector<Objectives>& objs,
+                                      const std::vector<int>& front) {
+  const size_t m = front.size();
+  std::vector<double> dist(m, 0.0);
+  if (m <= 2) return std::vector<double>(m, INFINITY);
+  auto value = [&](int obj, int idx) {
+    const Objectives& o = objs[front[idx]];
+    if (obj == 0) return o.finite() ? std::log10(std::max(o.error, 1e-300)) : 1e300;
+    return obj == 1 ? o.cost : o.discontinuity;
+  };
+  std::vector<int> order(m);
+  for (int obj = 0; obj < 3; ++obj) {
+    for (size_t k = 0; k < m; ++k) order[k] = static_cast<int>(k);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return value(obj, a) < value(obj, b); });
+    const double lo = value(obj, order.front()), hi = value(obj, order.back());
+    dist[order.front()] = dist[order.back()] = INFINITY;
+    if (!(hi > lo)) continue;
+    for (size_t k = 1; k + 1 < m; ++k)
+      dist[order[k]] += (value(obj, order[k + 1]) - value(obj, order[k - 1])) / (hi - lo);
+  }
+  return dist;
+}
+
+TEST(Pareto, LargePopulationsRankAndCrowdAsDefined) {
+  // Populations as the search makes them: few distinct costs and discontinuities, repeated
+  // errors, duplicates and non-finite members.
+  for (int n : {100, 700, 2000}) {
+    Rng rng(n);
+    std::vector<Objectives> objs;
+    for (int i = 0; i < n; ++i) {
+      const double e = rng.chance(0.05)  ? INFINITY
+                       : rng.chance(0.2) ? 0.01 * static_cast<double>(rng.below(5))
+                                         : std::exp(rng.uniform(-12.0, 0.0));
+      objs.push_back(O(e, static_cast<double>(rng.below(30)), static_cast<double>(rng.below(4))));
+      if (rng.chance(0.1)) {
+        const Objectives dup = objs[rng.below(static_cast<uint32_t>(objs.size()))];
+        objs.push_back(dup);
+      }
+    }
+    const auto r = nondominatedRanks(objs);
+    int fronts = 0;
+    for (size_t i = 0; i < objs.size(); ++i) {
+      int expect = 0;  // 1 + max rank of any dominator
+      for (size_t j = 0; j < objs.size(); ++j)
+        if (dominates(objs[j], objs[i])) expect = std::max(expect, r[j] + 1);
+      ASSERT_EQ(r[i], expect) << "n " << n << " member " << i;
+      fronts = std::max(fronts, r[i] + 1);
+    }
+    for (int f = 0; f < fronts; ++f) {
+      std::vector<int> members;
+      for (size_t i = 0; i < objs.size(); ++i)
+        if (r[i] == f) members.push_back(static_cast<int>(i));
+      const auto got = crowdingDistance(objs, members);
+      const auto want = referenceCrowding(objs, members);
+      ASSERT_EQ(got.size(), want.size());
+      for (size_t k = 0; k < got.size(); ++k) EXPECT_EQ(got[k], want[k]) << "n " << n;
     }
   }
 }

@@ -1,5 +1,6 @@
 #include "lgp/core/program.hpp"
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -80,8 +81,21 @@ void syncOutputs(Program& p, const ProgramShape& shape) {
 }
 
 std::vector<int> effectiveIndices(const Program& p) {
+  std::vector<int> eff;
+  effectiveIndices(p, eff);
+  return eff;
+}
+
+void effectiveIndices(const Program& p, std::vector<int>& out) {
   const int n = static_cast<int>(p.code.size());
-  std::vector<uint8_t> mark(n, 0);
+  // Programs have at most 255 opcodes (validate), so the marks normally live on the stack.
+  std::array<uint8_t, 256> local{};
+  std::vector<uint8_t> heap;
+  uint8_t* mark = local.data();
+  if (n > static_cast<int>(local.size())) {
+    heap.assign(n, 0);
+    mark = heap.data();
+  }
   for (uint8_t o : p.outputs)
     if (o < n) mark[o] = 1;
   for (int i = n - 1; i >= 0; --i) {
@@ -91,10 +105,9 @@ std::vector<int> effectiveIndices(const Program& p) {
       if (ins.args[a].kind == OperandKind::Reg && ins.args[a].index < i)
         mark[ins.args[a].index] = 1;
   }
-  std::vector<int> eff;
+  out.clear();
   for (int i = 0; i < n; ++i)
-    if (mark[i]) eff.push_back(i);
-  return eff;
+    if (mark[i]) out.push_back(i);
 }
 
 std::vector<int> effectiveConstants(const Program& p) {

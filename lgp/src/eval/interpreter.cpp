@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
@@ -107,6 +108,39 @@ Kernel kernelFor(Op op) {
   return kKernels[static_cast<int>(op)];
 }
 
+SplitColumn::SplitColumn(const double* y, const double* w, size_t rows, size_t padded) {
+  double big = 0;
+  min = rows > 0 ? y[0] : 0;
+  max = min;
+  for (size_t r = 0; r < rows; ++r) {
+    big = std::max(big, std::fabs(y[r]));
+    min = std::min(min, y[r]);
+    max = std::max(max, y[r]);
+  }
+  // max |y| * scale in [0.5, 1); clamped so that scale stays a normal float.
+  const int e = big > 0 && std::isfinite(big) ? std::clamp(std::ilogb(big) + 1, -120, 120) : 0;
+  scale = std::ldexp(1.0f, -e);
+  inv_scale = std::ldexp(1.0, e);
+  hi.resize(padded);
+  lo.resize(padded);
+  for (size_t r = 0; r < padded; ++r) {
+    const double v = y[r] * scale;
+    hi[r] = static_cast<float>(v);
+    lo[r] = static_cast<float>(v - hi[r]);
+  }
+  double sw = 0, swy = 0;
+  for (size_t r = 0; r < rows; ++r) {
+    sw += w[r];
+    swy += w[r] * y[r];
+  }
+  mean = sw > 0 ? swy / sw : 0;
+  ss_tot = 0;
+  for (size_t r = 0; r < rows; ++r) {
+    const double d = y[r] - mean;
+    ss_tot += w[r] * d * d;
+  }
+}
+
 Dataset::Dataset(const Table& t, int block_size) : rows_(t.rows()), block_(block_size) {
   if (block_ < 16 || block_ % 16 != 0)
     throw std::invalid_argument("block size must be a multiple of 16");
@@ -124,8 +158,13 @@ Dataset::Dataset(const Table& t, int block_size) : rows_(t.rows()), block_(block
   }
   weights_.assign(padded_, 0.0);
   for (size_t r = 0; r < rows_; ++r) weights_[r] = t.weights.empty() ? 1.0 : t.weights[r];
+  weights_f_.assign(weights_.begin(), weights_.end());
   weight_sum_ = 0;
   for (size_t r = 0; r < rows_; ++r) weight_sum_ += weights_[r];
+  unit_weights_ =
+      std::all_of(weights_.begin(), weights_.begin() + rows_, [](double w) { return w == 1.0; });
+  for (size_t o = 0; o < t.numOutputs(); ++o)
+    split_.emplace_back(targets_[o].data(), weights_.data(), rows_, padded_);
 }
 
 void BoundProgram::bind(const Program& p, int n_inputs) {
@@ -134,24 +173,28 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
   const_values.clear();
   output_slots.clear();
   bind_id = g_bind_counter.fetch_add(1, std::memory_order_relaxed);
-  const auto eff = effectiveIndices(p);
-  std::vector<int32_t> const_slot(p.constants.size(), -1);
+  effectiveIndices(p, effective);
+  const auto& eff = effective;
+  constant = true;
+  const_slot_.assign(p.constants.size(), -1);
   for (int i : eff) {
     const Instr& ins = p.code[i];
-    for (int a = 0; a < arity(ins.op); ++a)
-      if (ins.args[a].kind == OperandKind::Const && const_slot[ins.args[a].index] < 0) {
-        const_slot[ins.args[a].index] = n_inputs + static_cast<int32_t>(const_values.size());
+    for (int a = 0; a < arity(ins.op); ++a) {
+      if (ins.args[a].kind == OperandKind::Var) constant = false;
+      if (ins.args[a].kind == OperandKind::Const && const_slot_[ins.args[a].index] < 0) {
+        const_slot_[ins.args[a].index] = n_inputs + static_cast<int32_t>(const_values.size());
         const_values.push_back(p.constants[ins.args[a].index]);
       }
+    }
   }
   const int32_t reg_base = n_inputs + static_cast<int32_t>(const_values.size());
-  std::vector<int32_t> reg_slot(p.code.size(), -1);
+  reg_slot_.assign(p.code.size(), -1);
   for (size_t k = 0; k < eff.size(); ++k) {
     const Instr& ins = p.code[eff[k]];
     Step s{};
     s.kernel = kernelFor(ins.op);
     s.dst = reg_base + static_cast<int32_t>(k);
-    reg_slot[eff[k]] = s.dst;
+    reg_slot_[eff[k]] = s.dst;
     for (int a = 0; a < kMaxArity; ++a) {
       if (a >= arity(ins.op)) {
         s.src[a] = s.src[0];  // never read; any valid column
@@ -159,25 +202,24 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
       }
       const Operand& o = ins.args[a];
       s.src[a] = o.kind == OperandKind::Var     ? static_cast<int32_t>(o.index)
-                 : o.kind == OperandKind::Const ? const_slot[o.index]
-                                                : reg_slot[o.index];
+                 : o.kind == OperandKind::Const ? const_slot_[o.index]
+                                                : reg_slot_[o.index];
     }
     steps.push_back(s);
   }
-  for (uint8_t o : p.outputs) output_slots.push_back(reg_slot[o]);
+  for (uint8_t o : p.outputs) output_slots.push_back(reg_slot_[o]);
   num_slots = reg_base + static_cast<int32_t>(eff.size());
   const_source.assign(const_values.size(), 0);
-  for (size_t c = 0; c < const_slot.size(); ++c)
-    if (const_slot[c] >= 0) const_source[const_slot[c] - n_inputs] = static_cast<int32_t>(c);
+  for (size_t c = 0; c < const_slot_.size(); ++c)
+    if (const_slot_[c] >= 0) const_source[const_slot_[c] - n_inputs] = static_cast<int32_t>(c);
   if (!fuse || steps.size() < 2) return;
 
   // Pair fusion (see the header). readers[s] counts operand reads of slot s; outputs count too.
-  std::vector<int> readers(num_slots, 0);
+  readers_.assign(num_slots, 0);
   for (size_t k = 0; k < eff.size(); ++k)
-    for (int a = 0; a < arity(p.code[eff[k]].op); ++a) ++readers[steps[k].src[a]];
-  for (int32_t o : output_slots) readers[o] += 1000;
-  std::vector<Step> fused;
-  fused.reserve(steps.size());
+    for (int a = 0; a < arity(p.code[eff[k]].op); ++a) ++readers_[steps[k].src[a]];
+  for (int32_t o : output_slots) readers_[o] += 1000;
+  fused_.clear();
   for (size_t k = 0; k < steps.size(); ++k) {
     Step s1 = steps[k];
     if (k + 1 < steps.size()) {
@@ -190,7 +232,7 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
           mask |= 1 << a;
           ++uses;
         }
-      if (i1 >= 0 && i2 >= 0 && mask != 0 && readers[s1.dst] == uses) {
+      if (i1 >= 0 && i2 >= 0 && mask != 0 && readers_[s1.dst] == uses) {
         s1.pair = kPairKernels[static_cast<size_t>(i1 * 42 + i2 * 7 + mask - 1)];
         for (int a = 0; a < 3; ++a) s1.src2[a] = s2.src[a] == s1.dst ? s2.src[0] : s2.src[a];
         // Operands the pair kernel reads but ignores must still be valid columns.
@@ -200,9 +242,9 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
         ++k;
       }
     }
-    fused.push_back(s1);
+    fused_.push_back(s1);
   }
-  steps.swap(fused);
+  steps.swap(fused_);
 }
 
 void BoundProgram::updateConstants(const Program& p) {
@@ -225,7 +267,8 @@ void Interpreter::reserve(int slots) {
 }
 
 const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, const Dataset& ds,
-                                                        size_t block) {
+                                                        size_t block, int rows) {
+  const int n = rows > 0 ? std::min(rows, block_) : block_;
   const int scratch_slots = bp.num_slots - bp.num_inputs;
   reserve(scratch_slots);
   float* scratch = scratch_.get();
@@ -244,9 +287,9 @@ const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, 
     float* out = scratch + static_cast<size_t>(st.dst - bp.num_inputs) * block_;
     if (st.pair)
       st.pair(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src2[0]], q[st.src2[1]],
-              q[st.src2[2]], block_);
+              q[st.src2[2]], n);
     else
-      st.kernel(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src[3]], block_);
+      st.kernel(out, q[st.src[0]], q[st.src[1]], q[st.src[2]], q[st.src[3]], n);
   }
   outs_.resize(bp.output_slots.size());
   for (size_t o = 0; o < bp.output_slots.size(); ++o) outs_[o] = ptrs_[bp.output_slots[o]];

@@ -127,21 +127,33 @@ double DiscontinuityModel::programDiscontinuity(const Program& p,
   return d;
 }
 
+double fastErrorBound(ErrorMetric m, double reference, double max_abs_target, int block_size,
+                      double rel_floor) {
+  constexpr double u = 0x1p-24;
+  const double tail = 8 * u * u * max_abs_target;
+  switch (m) {
+    case ErrorMetric::Rmse:
+      return (block_size / 64.0 + 6) * u * reference + tail;
+    case ErrorMetric::Mae:
+      return (block_size / 32.0 + 8) * u * reference + tail;
+    case ErrorMetric::MeanRel:
+      return (block_size / 32.0 + 8) * u * reference + 8 * u * u +
+             0x1p-148 * max_abs_target / rel_floor;
+    case ErrorMetric::MaxAbs:
+      return 3 * u * reference + tail;
+  }
+  return 0;
+}
+
 namespace {
-// Weighted total sum of squares of y about its weighted mean (the denominator of R^2).
-double totalSumOfSquares(const double* y, const double* w, size_t n) {
-  double sw = 0, swy = 0;
-  for (size_t r = 0; r < n; ++r) {
-    sw += w[r];
-    swy += w[r] * y[r];
-  }
-  const double mean = sw > 0 ? swy / sw : 0;
-  double ss = 0;
-  for (size_t r = 0; r < n; ++r) {
-    const double d = y[r] - mean;
-    ss += w[r] * d * d;
-  }
-  return ss;
+using Acc = detail::ErrorAcc;
+using Target = detail::ErrorTarget;
+
+// MeanRel's row weights w / max(|y|, rel_floor) of a target column.
+void fillRelWeights(Target& t, const double* w, size_t n, double rel_floor) {
+  t.rel_w.resize(n);
+  for (size_t r = 0; r < n; ++r)
+    t.rel_w[r] = static_cast<float>(w[r] / std::max(std::fabs(t.y[r]), rel_floor));
 }
 }  // namespace
 
@@ -149,18 +161,32 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
     : ds_(ds), cfg_(std::move(cfg)), interp_(block_size) {
   cfg_.transforms.resize(ds.numOutputs(), TargetTransform::None);
   pred_.resize(block_size);
-  ss_tot_.resize(ds.numOutputs());
-  for (int o = 0; o < ds.numOutputs(); ++o)
-    ss_tot_[o] = totalSumOfSquares(ds.target(o), ds.weight(), ds.rows());
+  const_pred_.resize(block_size);
+  const size_t n = ds.paddedRows();
+  targets_.resize(ds.numOutputs());
+  for (int o = 0; o < ds.numOutputs(); ++o) {
+    targets_[o].col = &ds.split(o);
+    targets_[o].y = ds.target(o);
+    fillRelWeights(targets_[o], ds.weight(), n, cfg_.rel_floor);
+  }
   if (buffered()) {
-    const size_t n = ds.paddedRows();
     raw_.assign(ds.numOutputs(), std::vector<float>(n));
     chan_pred_.resize(block_size);
     if (cfg_.linear_scaling) {
-      fit_target_.assign(ds.numOutputs(), std::vector<double>(n));
-      for (int o = 0; o < ds.numOutputs(); ++o)
-        for (size_t r = 0; r < n; ++r)
-          fit_target_[o][r] = applyTransform(cfg_.transforms[o], ds.target(o)[r]);
+      // T(y) is fixed: its weighted mean and centred values are computed once, not per fit.
+      fit_mean_.assign(ds.numOutputs(), 0.0);
+      fit_centred_.assign(ds.numOutputs(), std::vector<double>(n));
+      const double* w = ds.weight();
+      for (int o = 0; o < ds.numOutputs(); ++o) {
+        auto& yc = fit_centred_[o];
+        double sy = 0;
+        for (size_t r = 0; r < n; ++r) {
+          yc[r] = applyTransform(cfg_.transforms[o], ds.target(o)[r]);
+          sy += w[r] * yc[r];
+        }
+        fit_mean_[o] = sy / ds.weightSum();
+        for (size_t r = 0; r < n; ++r) yc[r] -= fit_mean_[o];
+      }
     }
     for (auto& ch : cfg_.channels) {
       ch.weights.resize(ds.numOutputs(), 0.0);
@@ -168,16 +194,20 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
       for (int o = 0; o < ds.numOutputs(); ++o)
         if (ch.weights[o] != 0)
           for (size_t r = 0; r < n; ++r) t[r] += ch.weights[o] * ds.target(o)[r];
-      chan_ss_tot_.push_back(totalSumOfSquares(t.data(), ds.weight(), ds.rows()));
+      chan_cols_.emplace_back(t.data(), ds.weight(), ds.rows(), n);
       chan_target_.push_back(std::move(t));
+    }
+    chan_targets_.resize(cfg_.channels.size());
+    for (size_t c = 0; c < cfg_.channels.size(); ++c) {
+      chan_targets_[c].col = &chan_cols_[c];
+      chan_targets_[c].y = chan_target_[c].data();
+      fillRelWeights(chan_targets_[c], ds.weight(), n, cfg_.rel_floor);
     }
   }
   scales_.assign(ds.numOutputs(), LinearScale{});
 }
 
 namespace {
-using Acc = detail::ErrorAcc;
-
 // Every metric of one output from its sums over rows (r2 is left to the caller: it needs the
 // total sum of squares).
 OutputMetrics metricsFromAcc(const Acc& a, double weight_sum) {
@@ -214,30 +244,178 @@ double combineValues(const std::vector<double>& errors, OutputCombine combine) {
   return combined;
 }
 
-// Accumulates the metrics selected by M over one block. M < 0 computes all of them.
+// Which sums metric M needs (M < 0: all of them).
 template <int M>
-inline void accumulate(Acc& acc, const float* __restrict pred, const double* __restrict y,
-                       const double* __restrict w, int n, double rel_floor) {
+constexpr bool kNeedSse = M < 0 || M == static_cast<int>(ErrorMetric::Rmse);
+template <int M>
+constexpr bool kNeedSae = M < 0 || M == static_cast<int>(ErrorMetric::Mae);
+template <int M>
+constexpr bool kNeedRel = M < 0 || M == static_cast<int>(ErrorMetric::MeanRel);
+template <int M>
+constexpr bool kNeedMax = M < 0 || M == static_cast<int>(ErrorMetric::MaxAbs);
+
+// One block in double: the fallback when a float partial sum is not finite.
+template <int M>
+void accumulateDouble(Acc& acc, const float* pred, const double* y, const double* w, int n,
+                      double rel_floor) {
   double sse = 0, sae = 0, srel = 0, mx = 0;
-  float chk = 0;
-#pragma omp simd reduction(+ : sse, sae, srel, chk) reduction(max : mx)
   for (int i = 0; i < n; ++i) {
-    chk += pred[i] * 0.0f;
     const double d = static_cast<double>(pred[i]) - y[i];
     const double ad = std::fabs(d);
-    if constexpr (M < 0 || M == static_cast<int>(ErrorMetric::Rmse)) sse += w[i] * d * d;
-    if constexpr (M < 0 || M == static_cast<int>(ErrorMetric::Mae)) sae += w[i] * ad;
-    if constexpr (M < 0 || M == static_cast<int>(ErrorMetric::MeanRel)) {
-      const double ay = std::fabs(y[i]);
-      srel += w[i] * ad / (ay > rel_floor ? ay : rel_floor);
-    }
-    if constexpr (M < 0 || M == static_cast<int>(ErrorMetric::MaxAbs)) mx = ad > mx ? ad : mx;
+    if constexpr (kNeedSse<M>) sse += w[i] * d * d;
+    if constexpr (kNeedSae<M>) sae += w[i] * ad;
+    if constexpr (kNeedRel<M>) srel += w[i] * ad / std::max(std::fabs(y[i]), rel_floor);
+    if constexpr (kNeedMax<M>) mx = std::max(mx, ad);
   }
   acc.sse += sse;
   acc.sae += sae;
   acc.srel += srel;
   acc.maxabs = std::max(acc.maxabs, mx);
-  acc.chk += chk;
+}
+
+// Eight float lanes as one value (GCC/Clang vector extension: an AVX register here, lowered to
+// narrower registers on other targets), so that the lane layout and the summation order are
+// fixed by the code, not left to the vectoriser. Four of them make the 32 lanes of a sum:
+// enough independent chains to hide the add latency.
+using V8 = float __attribute__((vector_size(32)));
+using V8i = int32_t __attribute__((vector_size(32)));
+constexpr int kVecs = 4;
+constexpr int kLanes = 8 * kVecs;
+
+inline V8 load8(const float* p) {
+  V8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline V8 abs8(V8 v) {
+  return reinterpret_cast<V8>(reinterpret_cast<V8i>(v) & 0x7fffffff);
+}
+
+// Folds the 32 lanes in a fixed tree: (v0 + v2) + (v1 + v3), then halves of the eight lanes.
+inline float sumLanes(const V8* v) {
+  const V8 a = (v[0] + v[2]) + (v[1] + v[3]);
+  float b[4];
+  for (int j = 0; j < 4; ++j) b[j] = a[j] + a[j + 4];
+  return (b[0] + b[2]) + (b[1] + b[3]);
+}
+// The largest lane, NaN if any lane is NaN.
+inline float maxLanes(const V8* v) {
+  float m = v[0][0];
+  bool nan = false;
+  for (int k = 0; k < kVecs; ++k)
+    for (int j = 0; j < 8; ++j) {
+      nan |= v[k][j] != v[k][j];
+      m = v[k][j] > m ? v[k][j] : m;
+    }
+  return nan ? std::numeric_limits<float>::quiet_NaN() : m;
+}
+
+// Accumulates the metrics selected by M over rows [off, off + n) of one block (n a multiple
+// of 16). Differences are taken in float against the split target, d = (pred * s - hi) - lo:
+// pred * s is exact, and pred * s - hi is exact whenever pred is within a factor 2 of y
+// (Sterbenz), so the tiny error of a recovered formula survives. Weighted terms are summed in
+// 32 float lanes (row r goes to lane r mod 32) in a fixed order, the same for every M
+// (metrics() and error() agree to the last bit), and the block's sums go to the double
+// totals. kUnit: every row of the block has weight 1 (no weight loads). A NaN or Inf
+// prediction makes a sum non-finite (max is NaN-sticky), and only then is the block looked at
+// again: non-finite predictions flag chk, otherwise float overflowed and the block is summed
+// in double. Accuracy: fastErrorBound.
+template <int M, bool kUnit>
+[[gnu::always_inline]] inline void accumulate(Acc& acc, const float* pred, const Target& t,
+                                              const float* wf, const double* wd, size_t off, int n,
+                                              double rel_floor) {
+  const float* hi = t.col->hi.data() + off;
+  const float* lo = t.col->lo.data() + off;
+  const float* rw = t.rel_w.data() + off;
+  const float* w = wf + off;
+  const float s = t.col->scale;
+  V8 sse[kVecs] = {}, sae[kVecs] = {}, srel[kVecs] = {}, mx[kVecs] = {};
+  auto rows8 = [&](int r, int k) {
+    const V8 d = (load8(pred + r) * s - load8(hi + r)) - load8(lo + r);
+    const V8 ad = abs8(d);
+    if constexpr (kNeedSse<M>) sse[k] += kUnit ? d * d : load8(w + r) * (d * d);
+    if constexpr (kNeedSae<M>) sae[k] += kUnit ? ad : load8(w + r) * ad;
+    if constexpr (kNeedRel<M>) srel[k] += load8(rw + r) * ad;
+    if constexpr (kNeedMax<M>) mx[k] = ((ad > mx[k]) | (ad != ad)) ? ad : mx[k];
+  };
+  int i = 0;
+  for (; i + kLanes <= n; i += kLanes)
+    for (int k = 0; k < kVecs; ++k) rows8(i + 8 * k, k);
+  if (i < n) {  // a block of 16 * odd rows: 16 left (constant indices keep sums in registers)
+    rows8(i, 0);
+    rows8(i + 8, 1);
+  }
+  const float fsse = kNeedSse<M> ? sumLanes(sse) : 0.0f;
+  const float fsae = kNeedSae<M> ? sumLanes(sae) : 0.0f;
+  const float fsrel = kNeedRel<M> ? sumLanes(srel) : 0.0f;
+  const float fmx = kNeedMax<M> ? maxLanes(mx) : 0.0f;
+  const double inv = t.col->inv_scale;  // a power of two: exact
+  Acc block{static_cast<double>(fsse) * (inv * inv), static_cast<double>(fsae) * inv,
+            static_cast<double>(fsrel) * inv, static_cast<double>(fmx) * inv, 0.0f};
+  if (!std::isfinite(fsse + fsae + fsrel + fmx)) {
+    float chk = 0;
+    for (int r = 0; r < n; ++r) chk += pred[r] * 0.0f;
+    acc.chk += chk;
+    if (!(chk == 0.0f)) return;
+    // Only the sums that overflowed are replaced, so each sum is the same for every M.
+    Acc d;
+    accumulateDouble<M>(d, pred, t.y + off, wd + off, n, rel_floor);
+    if (!std::isfinite(block.sse)) block.sse = d.sse;
+    if (!std::isfinite(block.sae)) block.sae = d.sae;
+    if (!std::isfinite(block.srel)) block.srel = d.srel;
+    if (!std::isfinite(block.maxabs)) block.maxabs = d.maxabs;
+  }
+  acc.sse += block.sse;
+  acc.sae += block.sae;
+  acc.srel += block.srel;
+  acc.maxabs = std::max(acc.maxabs, block.maxabs);
+}
+
+// Block `b` of an output or channel: the unit-weight loop where it applies.
+template <int M>
+[[gnu::always_inline]] inline void accumulateBlock(Acc& acc, const float* pred, const Target& t,
+                                                   const Dataset& ds, size_t b, double rel_floor) {
+  const int bs = ds.blockSize();
+  const size_t off = b * bs;
+  if (ds.unitWeights() && off + bs <= ds.rows())
+    accumulate<M, true>(acc, pred, t, ds.weightF(), ds.weight(), off, bs, rel_floor);
+  else
+    accumulate<M, false>(acc, pred, t, ds.weightF(), ds.weight(), off, bs, rel_floor);
+}
+
+// The scale applied as the materialised opcode computes it (see applyLinearScaling).
+void applyScale(const LinearScale& ls, float* v, size_t n) {
+  switch (ls.op()) {
+    case Op::Mul:
+#pragma omp simd
+      for (size_t r = 0; r < n; ++r) v[r] = v[r] * ls.a;
+      break;
+    case Op::Add:
+#pragma omp simd
+      for (size_t r = 0; r < n; ++r) v[r] = v[r] + ls.b;
+      break;
+    default:
+#pragma omp simd
+      for (size_t r = 0; r < n; ++r) v[r] = sem::apply<Op::Mad, float>(v[r], ls.a, ls.b, 0.0f);
+      break;
+  }
+}
+
+void invertInPlace(TargetTransform t, float* v, size_t n) {
+  if (t == TargetTransform::None) return;
+#pragma omp simd
+  for (size_t r = 0; r < n; ++r) v[r] = invert<float>(t, v[r]);
+}
+
+// a and b from the centred weighted sums; a = 0 (offset only) for a flat or degenerate f.
+LinearScale scaleFromSums(double sw, double mf, double my, double sff, double sfy) {
+  double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
+  double b0 = my - a * mf;
+  if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
+    a = 0.0;
+    b0 = std::isfinite(my) ? my : 0.0;
+  }
+  return LinearScale{static_cast<float>(a), static_cast<float>(b0)};
 }
 }  // namespace
 
@@ -248,7 +426,6 @@ void Scorer::run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs) {
   accs.assign(bp.output_slots.size(), Acc{});
   for (size_t b = 0; b < nb; ++b) {
     const auto& outs = interp_.evalBlock(bp, ds_, b);
-    const size_t off = b * bs;
     for (size_t o = 0; o < outs.size(); ++o) {
       const float* pred = outs[o];
       const TargetTransform t = cfg_.transforms[o];
@@ -258,10 +435,40 @@ void Scorer::run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs) {
         for (int i = 0; i < bs; ++i) buf[i] = invert<float>(t, pred[i]);
         pred = buf;
       }
-      accumulate<M>(accs[o], pred, ds_.target(static_cast<int>(o)) + off, ds_.weight() + off, bs,
-                    cfg_.rel_floor);
+      accumulateBlock<M>(accs[o], pred, targets_[o], ds_, b, cfg_.rel_floor);
     }
   }
+}
+
+LinearScale Scorer::fitScale(const float* v, int o) const {
+  // Centred two-pass least squares for accuracy, in double; fixed lanes so that it vectorises
+  // and stays deterministic.
+  constexpr int L = 8;
+  const size_t n = ds_.paddedRows();  // a multiple of 16
+  const double* w = ds_.weight();
+  const double* yc = fit_centred_[o].data();
+  const double sw = ds_.weightSum();
+  double sf[L] = {};
+  for (size_t r = 0; r < n; r += L)
+#pragma omp simd
+    for (int j = 0; j < L; ++j) sf[j] += w[r + j] * v[r + j];
+  double tf = 0;
+  for (int j = 0; j < L; ++j) tf += sf[j];
+  const double mf = tf / sw;
+  double sff[L] = {}, sfy[L] = {};
+  for (size_t r = 0; r < n; r += L)
+#pragma omp simd
+    for (int j = 0; j < L; ++j) {
+      const double df = v[r + j] - mf;
+      sff[j] += w[r + j] * df * df;
+      sfy[j] += w[r + j] * df * yc[r + j];
+    }
+  double tff = 0, tfy = 0;
+  for (int j = 0; j < L; ++j) {
+    tff += sff[j];
+    tfy += sfy[j];
+  }
+  return scaleFromSums(sw, mf, fit_mean_[o], tff, tfy);
 }
 
 template <int M>
@@ -274,66 +481,26 @@ bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail:
     const auto& outs = interp_.evalBlock(bp, ds_, b);
     for (int o = 0; o < k; ++o) std::memcpy(raw_[o].data() + b * bs, outs[o], bs * sizeof(float));
   }
-  const double* w = ds_.weight();
+  // Reset first: a program that fails below must not leave the scales (and so the cost) of
+  // whatever this Scorer measured before.
+  std::fill(scales_.begin(), scales_.end(), LinearScale{});
   for (int o = 0; o < k; ++o) {
     float* v = raw_[o].data();
     float chk = 0;
 #pragma omp simd reduction(+ : chk)
     for (size_t r = 0; r < n; ++r) chk += v[r] * 0.0f;
     if (!(chk == 0.0f)) return false;
-    scales_[o] = LinearScale{};
     if (scale) {
-      // Weighted least squares of T(y) on f, centred (two passes) for accuracy.
-      const double* y = fit_target_[o].data();
-      double sw = 0, sf = 0, sy = 0;
-      for (size_t r = 0; r < n; ++r) {
-        sw += w[r];
-        sf += w[r] * v[r];
-        sy += w[r] * y[r];
-      }
-      const double mf = sf / sw, my = sy / sw;
-      double sff = 0, sfy = 0;
-      for (size_t r = 0; r < n; ++r) {
-        const double df = v[r] - mf;
-        sff += w[r] * df * df;
-        sfy += w[r] * df * (y[r] - my);
-      }
-      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
-      double b0 = my - a * mf;
-      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
-        a = 0.0;
-        b0 = std::isfinite(my) ? my : 0.0;
-      }
-      LinearScale ls{static_cast<float>(a), static_cast<float>(b0)};
-      scales_[o] = ls;
-      // What the materialised opcode computes (see applyLinearScaling).
-      switch (ls.op()) {
-        case Op::Mul:
-#pragma omp simd
-          for (size_t r = 0; r < n; ++r) v[r] = v[r] * ls.a;
-          break;
-        case Op::Add:
-#pragma omp simd
-          for (size_t r = 0; r < n; ++r) v[r] = v[r] + ls.b;
-          break;
-        default:
-#pragma omp simd
-          for (size_t r = 0; r < n; ++r) v[r] = sem::apply<Op::Mad, float>(v[r], ls.a, ls.b, 0.0f);
-          break;
-      }
+      scales_[o] = fitScale(v, o);
+      applyScale(scales_[o], v, n);
     }
-    const TargetTransform t = cfg_.transforms[o];
-    if (t != TargetTransform::None) {
-#pragma omp simd
-      for (size_t r = 0; r < n; ++r) v[r] = invert<float>(t, v[r]);
-    }
+    invertInPlace(cfg_.transforms[o], v, n);
   }
   if (cfg_.channels.empty()) {
     accs.assign(k, Acc{});
     for (int o = 0; o < k; ++o)
       for (size_t b = 0; b < nb; ++b)
-        accumulate<M>(accs[o], raw_[o].data() + b * bs, ds_.target(o) + b * bs, w + b * bs, bs,
-                      cfg_.rel_floor);
+        accumulateBlock<M>(accs[o], raw_[o].data() + b * bs, targets_[o], ds_, b, cfg_.rel_floor);
     return true;
   }
   accs.assign(cfg_.channels.size(), Acc{});
@@ -350,14 +517,71 @@ bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail:
 #pragma omp simd
         for (int i = 0; i < bs; ++i) cp[i] += wo * v[i];
       }
-      accumulate<M>(accs[c], cp, chan_target_[c].data() + off, w + off, bs, cfg_.rel_floor);
+      accumulateBlock<M>(accs[c], cp, chan_targets_[c], ds_, b, cfg_.rel_floor);
     }
   }
   return true;
 }
 
 template <int M>
+bool Scorer::runConstant(const BoundProgram& bp, bool buffered, bool scale,
+                         std::vector<detail::ErrorAcc>& accs) {
+  // Every row computes the same value (the kernels are bit-identical row by row), so one
+  // 16-row slice gives it; the steps below repeat the full path's on that one value.
+  const auto& outs = interp_.evalBlock(bp, ds_, 0, 16);
+  const int k = static_cast<int>(outs.size());
+  const_vals_.resize(k);
+  if (buffered) std::fill(scales_.begin(), scales_.end(), LinearScale{});
+  for (int o = 0; o < k; ++o) {
+    float v = outs[o][0];
+    if (buffered) {
+      if (!(v * 0.0f == 0.0f)) return false;
+      // The fit of a constant f: sff = 0, so a = 0 and b = the weighted mean of T(y), exactly
+      // what fitScale computes for a flat column.
+      if (scale) {
+        scales_[o] = scaleFromSums(ds_.weightSum(), v, fit_mean_[o], 0.0, 0.0);
+        applyScale(scales_[o], &v, 1);
+      }
+    }
+    invertInPlace(cfg_.transforms[o], &v, 1);
+    const_vals_[o] = v;
+  }
+  const bool channels = buffered && !cfg_.channels.empty();
+  const size_t nt = channels ? cfg_.channels.size() : static_cast<size_t>(k);
+  accs.assign(nt, Acc{});
+  const double ws = ds_.weightSum();
+  for (size_t c = 0; c < nt; ++c) {
+    float p = const_vals_[c];
+    const Target* t = &targets_[c];
+    if (channels) {
+      const auto& wt = cfg_.channels[c].weights;
+      p = 0.0f;
+      for (int o = 0; o < k; ++o)
+        if (wt[o] != 0) p += static_cast<float>(wt[o]) * const_vals_[o];
+      t = &chan_targets_[c];
+    }
+    Acc& a = accs[c];
+    a.chk = p * 0.0f;
+    if (!(a.chk == 0.0f)) continue;
+    if constexpr (kNeedSae<M> || kNeedRel<M>) {
+      // No closed form: the full path's accumulation over a broadcast column (same result).
+      std::fill(const_pred_.begin(), const_pred_.end(), p);
+      for (size_t b = 0; b < ds_.numBlocks(); ++b)
+        accumulateBlock<M>(a, const_pred_.data(), *t, ds_, b, cfg_.rel_floor);
+    }
+    // sum w (p - y)^2 = W (p - mean)^2 + SS_tot; max |p - y| is at the target's min or max.
+    const SplitColumn& col = *t->col;
+    const double pd = p;
+    if constexpr (kNeedSse<M>) a.sse = ws * (pd - col.mean) * (pd - col.mean) + col.ss_tot;
+    if constexpr (kNeedMax<M>)
+      a.maxabs = std::max(std::fabs(pd - col.min), std::fabs(pd - col.max));
+  }
+  return true;
+}
+
+template <int M>
 bool Scorer::measure(const BoundProgram& bp) {
+  if (bp.constant) return runConstant<M>(bp, buffered(), cfg_.linear_scaling, acc_);
   if (buffered()) return runBuffered<M>(bp, cfg_.linear_scaling, acc_);
   run<M>(bp, acc_);
   return true;
@@ -395,14 +619,18 @@ double Scorer::error(const BoundProgram& bp) {
 
 std::vector<OutputMetrics> Scorer::metrics(const Program& p) {
   bound_.bind(p, ds_.numInputs());
-  run<-1>(bound_, acc_);
+  if (bound_.constant)
+    runConstant<-1>(bound_, false, false, acc_);
+  else
+    run<-1>(bound_, acc_);
   std::vector<OutputMetrics> out(acc_.size());
   const double ws = ds_.weightSum();
   for (size_t o = 0; o < acc_.size(); ++o) {
     const detail::ErrorAcc& a = acc_[o];
     if (!(a.chk == 0.0f)) continue;  // stays at the worst values
     out[o] = metricsFromAcc(a, ws);
-    out[o].r2 = ss_tot_[o] > 0 ? 1.0 - a.sse / ss_tot_[o] : (a.sse == 0 ? 1.0 : 0.0);
+    const double ss = targets_[o].col->ss_tot;
+    out[o].r2 = ss > 0 ? 1.0 - a.sse / ss : (a.sse == 0 ? 1.0 : 0.0);
   }
   return out;
 }
@@ -411,11 +639,13 @@ std::vector<OutputMetrics> Scorer::channelMetrics(const Program& p) {
   if (cfg_.channels.empty()) return metrics(p);
   bound_.bind(p, ds_.numInputs());
   std::vector<OutputMetrics> out(cfg_.channels.size());
-  if (!runBuffered<-1>(bound_, false, acc_)) return out;
+  const bool ok = bound_.constant ? runConstant<-1>(bound_, true, false, acc_)
+                                  : runBuffered<-1>(bound_, false, acc_);
+  if (!ok) return out;
   for (size_t c = 0; c < acc_.size(); ++c) {
     if (!(acc_[c].chk == 0.0f)) continue;
     out[c] = metricsFromAcc(acc_[c], ds_.weightSum());
-    const double ss = chan_ss_tot_[c];
+    const double ss = chan_cols_[c].ss_tot;
     out[c].r2 = ss > 0 ? 1.0 - acc_[c].sse / ss : (acc_[c].sse == 0 ? 1.0 : 0.0);
   }
   return out;

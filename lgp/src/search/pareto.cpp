@@ -17,37 +17,56 @@ bool dominates(const Objectives& a, const Objectives& b) {
 }
 
 std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
-  // Efficient non-dominated sort (ENS-SS, Zhang et al. 2015): in lexicographic order an
-  // individual can only be dominated by one before it, so each is placed in the first front
-  // none of whose members dominates it, scanning each front from its most recent member.
-  const int n = static_cast<int>(objs.size());
-  std::vector<int> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  auto key = [&](int i) {
-    return objs[i].finite() ? objs[i].error : std::numeric_limits<double>::infinity();
+  // Efficient non-dominated sort (Zhang et al. 2015): in lexicographic order an individual can
+  // only be dominated by one before it, so each is placed in the first front none of whose
+  // members dominates it, scanning each front from its most recent member. The fronts are
+  // searched by bisection (their ENS-BS): every member of front k is dominated by one of front
+  // k-1, so if front k dominates an individual, so do all fronts before k. The rank is
+  // 1 + the highest rank of its dominators whatever the search, so results do not change.
+  struct Key {
+    double e, c, d;
+    int i;
   };
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    if (key(a) != key(b)) return key(a) < key(b);
-    if (objs[a].cost != objs[b].cost) return objs[a].cost < objs[b].cost;
-    return objs[a].discontinuity < objs[b].discontinuity;
-  });
+  const int n = static_cast<int>(objs.size());
+  std::vector<Key> keys;
+  keys.reserve(n);
   std::vector<int> rank(n, 0);
-  std::vector<std::vector<int>> fronts;
-  for (const int i : order) {
-    size_t f = 0;
-    for (; f < fronts.size(); ++f) {
-      bool dominated = false;
-      for (auto it = fronts[f].rbegin(); it != fronts[f].rend(); ++it)
-        if (dominates(objs[*it], objs[i])) {
-          dominated = true;
-          break;
-        }
-      if (!dominated) break;
-    }
-    if (f == fronts.size()) fronts.emplace_back();
-    fronts[f].push_back(i);
-    rank[i] = static_cast<int>(f);
+  std::vector<int> bad;  // non-finite error: dominated by every finite one, dominate none
+  for (int i = 0; i < n; ++i) {
+    if (objs[i].finite())
+      keys.push_back({objs[i].error, objs[i].cost, objs[i].discontinuity, i});
+    else
+      bad.push_back(i);
   }
+  std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+    if (a.e != b.e) return a.e < b.e;
+    if (a.c != b.c) return a.c < b.c;
+    return a.d < b.d;
+  });
+  auto dominatesKey = [](const Key& a, const Key& b) {
+    return a.e <= b.e && a.c <= b.c && a.d <= b.d && (a.e < b.e || a.c < b.c || a.d < b.d);
+  };
+  std::vector<std::vector<Key>> fronts;
+  auto frontDominates = [&](size_t f, const Key& k) {
+    const auto& members = fronts[f];
+    for (auto it = members.rbegin(); it != members.rend(); ++it)
+      if (dominatesKey(*it, k)) return true;
+    return false;
+  };
+  for (const Key& k : keys) {
+    size_t lo = 0, hi = fronts.size();  // the first non-dominating front is in [lo, hi]
+    while (lo < hi) {
+      const size_t mid = lo + (hi - lo) / 2;
+      if (frontDominates(mid, k))
+        lo = mid + 1;
+      else
+        hi = mid;
+    }
+    if (lo == fronts.size()) fronts.emplace_back();
+    fronts[lo].push_back(k);
+    rank[k.i] = static_cast<int>(lo);
+  }
+  for (int i : bad) rank[i] = static_cast<int>(fronts.size());
   return rank;
 }
 
@@ -59,22 +78,24 @@ std::vector<double> crowdingDistance(const std::vector<Objectives>& objs,
     std::fill(dist.begin(), dist.end(), std::numeric_limits<double>::infinity());
     return dist;
   }
-  // Error is compared on a log scale: the interesting trade-offs span decades.
-  auto value = [&](int obj, int idx) {
-    const Objectives& o = objs[front[idx]];
-    if (obj == 0) return o.finite() ? std::log10(std::max(o.error, 1e-300)) : 1e300;
-    return obj == 1 ? o.cost : o.discontinuity;
-  };
-  std::vector<int> order(m);
+  // Error is compared on a log scale: the interesting trade-offs span decades. Keys are
+  // computed once per objective, not in the comparator.
+  std::vector<std::pair<double, int>> key(m);
   for (int obj = 0; obj < 3; ++obj) {
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return value(obj, a) < value(obj, b); });
-    const double lo = value(obj, order.front()), hi = value(obj, order.back());
-    dist[order.front()] = dist[order.back()] = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < m; ++k) {
+      const Objectives& o = objs[front[k]];
+      const double v = obj == 0   ? (o.finite() ? std::log10(std::max(o.error, 1e-300)) : 1e300)
+                       : obj == 1 ? o.cost
+                                  : o.discontinuity;
+      key[k] = {v, static_cast<int>(k)};
+    }
+    std::stable_sort(key.begin(), key.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    const double lo = key.front().first, hi = key.back().first;
+    dist[key.front().second] = dist[key.back().second] = std::numeric_limits<double>::infinity();
     if (!(hi > lo)) continue;
     for (size_t k = 1; k + 1 < m; ++k)
-      dist[order[k]] += (value(obj, order[k + 1]) - value(obj, order[k - 1])) / (hi - lo);
+      dist[key[k].second] += (key[k + 1].first - key[k - 1].first) / (hi - lo);
   }
   return dist;
 }

@@ -91,7 +91,7 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   Objectives o;
   o.error = s.error(p);
   if (!std::isfinite(o.error)) o.error = kInf;
-  const auto effective = effectiveIndices(p);
+  const auto& effective = s.bound().effective;  // bound by error(p): computed once
   o.cost = cost_.programCost(p, effective) + transform_cost_;
   if (err_cfg_.linear_scaling) o.cost += scalingCost(cost_, s.scales());
   o.discontinuity = disc_.programDiscontinuity(p, effective);

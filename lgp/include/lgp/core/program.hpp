@@ -83,6 +83,8 @@ void syncOutputs(Program& p, const ProgramShape& shape);
 // Indices of effective opcodes (those some output depends on), ascending. Backward marking
 // as in Brameier & Banzhaf's intron removal, on the DAG form.
 std::vector<int> effectiveIndices(const Program& p);
+// The same into `out`, reusing its capacity (no allocation in steady state).
+void effectiveIndices(const Program& p, std::vector<int>& out);
 
 // Constant slots referenced by effective opcodes, ascending.
 std::vector<int> effectiveConstants(const Program& p);

@@ -11,8 +11,9 @@
 //     over `float*` that the compiler vectorises; transcendentals come from vecmath.hpp.
 //  4. The scratch buffer belongs to the Interpreter (one per thread) and is sized once; the
 //     hot loop never allocates, throws or calls scalar libm.
-//  5. Reductions over rows accumulate per block in double, and blocks are combined in block
-//     order, so results do not depend on the thread count.
+//  5. Reductions over rows accumulate per block (in float lanes of a fixed layout, see
+//     fastErrorBound in objectives.hpp), and blocks are combined in double in block order, so
+//     results do not depend on the thread count.
 #pragma once
 
 #include <cstddef>
@@ -44,6 +45,22 @@ struct AlignedAllocator {
   }
 };
 
+// A double column prepared for float error accumulation (see accumulate in objectives.cpp):
+// y * scale = hi + lo with hi = float(y * scale) and lo = float(y * scale - hi), so a float
+// prediction's difference to y keeps about 48 bits of y. scale is a power of two (exact) that
+// puts max |y| in [0.5, 1): squared differences stay far from float overflow and underflow
+// whatever the target's magnitude. Also the column's statistics over the real rows, for the
+// closed-form error of a constant prediction.
+struct SplitColumn {
+  std::vector<float, AlignedAllocator<float>> hi, lo;  // every padded row
+  float scale = 1;
+  double inv_scale = 1;
+  double mean = 0, ss_tot = 0;  // weighted mean; weighted sum of squares about it (R^2)
+  double min = 0, max = 0;      // over every row, whatever its weight
+  SplitColumn() = default;
+  SplitColumn(const double* y, const double* w, size_t rows, size_t padded);
+};
+
 // Float32 copy of a table's columns, padded to a whole number of blocks (padding repeats the
 // last row so that it stays inside every operator's domain; padded rows carry weight 0).
 class Dataset {
@@ -59,7 +76,10 @@ class Dataset {
   int numOutputs() const { return static_cast<int>(targets_.size()); }
   const float* input(int i) const { return inputs_[i].data(); }
   const double* target(int o) const { return targets_[o].data(); }  // double ground truth
+  const SplitColumn& split(int o) const { return split_[o]; }       // float form of target(o)
   const double* weight() const { return weights_.data(); }          // always present
+  const float* weightF() const { return weights_f_.data(); }        // the same in float
+  bool unitWeights() const { return unit_weights_; }                // every real row has weight 1
   double weightSum() const { return weight_sum_; }
 
  private:
@@ -67,8 +87,11 @@ class Dataset {
   int block_ = 256;
   std::vector<std::vector<float, AlignedAllocator<float>>> inputs_;
   std::vector<std::vector<double>> targets_;
+  std::vector<SplitColumn> split_;
   std::vector<double> weights_;
+  std::vector<float, AlignedAllocator<float>> weights_f_;
   double weight_sum_ = 0;
+  bool unit_weights_ = true;
 };
 
 using Kernel = void (*)(float* out, const float* a, const float* b, const float* c, const float* d,
@@ -102,11 +125,20 @@ struct BoundProgram {
 
   std::vector<int32_t> const_source;  // program constant slot of each bound constant
   bool fuse = true;                   // allow pair fusion (off: one kernel per opcode)
+  std::vector<int> effective;         // effectiveIndices(p) of the bound program
+  bool constant = false;  // no effective opcode reads an input: each output is one value
 
+  // Rebinding reuses every buffer: no allocation once they have grown to the largest program.
   void bind(const Program& p, int num_inputs);
   // Refreshes constant values after p's constants changed (same structure); cheap, used by
   // Nelder-Mead so that it binds once per refinement.
   void updateConstants(const Program& p);
+
+ private:
+  // bind()'s working buffers.
+  std::vector<int32_t> const_slot_, reg_slot_;
+  std::vector<int> readers_;
+  std::vector<Step> fused_;
 };
 
 Kernel kernelFor(Op op);
@@ -117,8 +149,9 @@ class Interpreter {
 
   // Evaluates rows [block*bs, (block+1)*bs) and returns one pointer per output, valid until
   // the next call. Never allocates once the scratch has grown to the largest program.
+  // rows > 0 evaluates only the block's first `rows` rows (a multiple of 16).
   const std::vector<const float*>& evalBlock(const BoundProgram& bp, const Dataset& ds,
-                                             size_t block);
+                                             size_t block, int rows = 0);
 
   // Convenience: all outputs for all rows (allocates; not for the hot loop). [output][row]
   std::vector<std::vector<float>> evaluate(const Program& p, const Dataset& ds);

@@ -15,7 +15,8 @@ namespace lgp {
 // dominates and is dominated by every finite individual.
 bool dominates(const Objectives& a, const Objectives& b);
 
-// NSGA-II fast non-dominated sort. Returns the front rank per individual (0 = best).
+// Non-dominated sorting (ENS-BS, Zhang et al. 2015). Returns the front rank per individual
+// (0 = best): 1 + the highest rank among those that dominate it, as NSGA-II defines it.
 std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs);
 
 // Crowding distance of each member of `front` (indices into objs); boundary points +inf.
