@@ -90,7 +90,7 @@ enum class RefineMethod : uint8_t {
 // not improve them; archive members get archive_lm_iterations of LM, then the full
 // derivative-free refinement (`method`).
 struct NelderMeadSchedule {
-  double offspring_share = 0.1;    // share of each generation's offspring refined
+  double offspring_share = 1.0;    // share of each generation's offspring refined
   int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free
   int archive_lm_iterations = 30;  // LM iterations per archive refinement; 0 = none
   int offspring_evaluations = 60;  // budget of the quick Nelder-Mead polish (no restarts)
