@@ -151,7 +151,7 @@ Summary measure(const lgp::Table& table, int threads) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Non-dominated sorting (lgp::nondominatedRanks, ENS-SS) measured alone on the distinct
+// Non-dominated sorting (lgp::nondominatedRanks) measured alone on the distinct
 // objective vectors of a real pool (population at generation G-1 plus that at G), as
 // rankPopulation passes them. It is serial, so it bounds the multi-thread speed-up.
 std::vector<lgp::Objectives> populationObjectives(const nlohmann::json& checkpoint) {

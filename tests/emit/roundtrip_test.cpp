@@ -346,10 +346,12 @@ std::vector<std::pair<std::string, std::vector<std::string>>> publishedDfg() {
 
 // A few real front members: a short, seeded search on the DFG table.
 std::vector<Program> frontMembers(const Table& t) {
+  // At this budget about 4 seeds in 5 give a front of 3 or more (31 of 1..40 with double error
+  // sums, 32 with float ones); seed 7 gives 7 members with both.
   nlohmann::json cj = {
       {"data", {{"path", (test::dataDir() / "dfg_16x16.json").string()}}},
       {"program", {{"max_length", 20}}},
-      {"search", {{"population", 64}, {"generations", 12}, {"seed", 5}, {"threads", 1}}}};
+      {"search", {{"population", 64}, {"generations", 12}, {"seed", 7}, {"threads", 1}}}};
   auto cfg = parseRunConfig(cj, test::dataDir());
   EXPECT_TRUE(cfg.hasValue()) << cfg.error();
   if (!cfg) return {};

@@ -1,5 +1,6 @@
 #include "lgp/core/program.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -89,13 +90,14 @@ std::vector<int> effectiveIndices(const Program& p) {
 void effectiveIndices(const Program& p, std::vector<int>& out) {
   const int n = static_cast<int>(p.code.size());
   // Programs have at most 255 opcodes (validate), so the marks normally live on the stack.
-  std::array<uint8_t, 256> local{};
+  std::array<uint8_t, 256> local;  // only the first n are cleared and used
   std::vector<uint8_t> heap;
   uint8_t* mark = local.data();
   if (n > static_cast<int>(local.size())) {
-    heap.assign(n, 0);
+    heap.resize(n);
     mark = heap.data();
   }
+  std::fill_n(mark, n, uint8_t{0});
   for (uint8_t o : p.outputs)
     if (o < n) mark[o] = 1;
   for (int i = n - 1; i >= 0; --i) {

@@ -17,6 +17,18 @@ namespace lgp {
 namespace {
 std::atomic<uint64_t> g_bind_counter{1};
 
+// A process-unique, non-zero id. Each thread takes a range of 2^20 at a time, so binding does
+// not contend on one shared counter.
+uint64_t nextBindId() {
+  constexpr uint64_t kRange = uint64_t{1} << 20;
+  thread_local uint64_t next = 0, end = 0;
+  if (next == end) {
+    next = g_bind_counter.fetch_add(kRange, std::memory_order_relaxed);
+    end = next + kRange;
+  }
+  return next++;
+}
+
 float* allocAligned(size_t n) {
   const size_t bytes = ((n * sizeof(float) + 63) / 64) * 64;
   void* p = std::aligned_alloc(64, std::max<size_t>(bytes, 64));
@@ -172,7 +184,7 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
   steps.clear();
   const_values.clear();
   output_slots.clear();
-  bind_id = g_bind_counter.fetch_add(1, std::memory_order_relaxed);
+  bind_id = nextBindId();
   effectiveIndices(p, effective);
   const auto& eff = effective;
   constant = true;
@@ -249,7 +261,7 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
 
 void BoundProgram::updateConstants(const Program& p) {
   for (size_t c = 0; c < const_values.size(); ++c) const_values[c] = p.constants[const_source[c]];
-  bind_id = g_bind_counter.fetch_add(1, std::memory_order_relaxed);
+  bind_id = nextBindId();
 }
 
 Interpreter::Interpreter(int block_size) : block_(block_size), scratch_(nullptr, &freeAligned) {

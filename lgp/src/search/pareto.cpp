@@ -17,12 +17,15 @@ bool dominates(const Objectives& a, const Objectives& b) {
 }
 
 std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
-  // Efficient non-dominated sort (Zhang et al. 2015): in lexicographic order an individual can
-  // only be dominated by one before it, so each is placed in the first front none of whose
-  // members dominates it, scanning each front from its most recent member. The fronts are
-  // searched by bisection (their ENS-BS): every member of front k is dominated by one of front
-  // k-1, so if front k dominates an individual, so do all fronts before k. The rank is
-  // 1 + the highest rank of its dominators whatever the search, so results do not change.
+  // Efficient non-dominated sort (Zhang et al. 2015): in lexicographic order (error, cost,
+  // discontinuity) an individual can only be dominated by one before it, so each is placed in
+  // the first front none of whose members dominates it. The fronts are searched by bisection
+  // (their ENS-BS): every member of front k is dominated by one of front k-1, so if front k
+  // dominates an individual, so do all fronts before k. With three objectives, an earlier j
+  // (error_j <= error_i) dominates i exactly when cost_j <= cost_i and disc_j <= disc_i, unless
+  // the two are equal in all three; so each front is queried through its staircase of
+  // (cost, disc)-minimal members, by binary search. The rank is 1 + the highest rank of the
+  // individual's dominators whatever the search, so results do not change.
   struct Key {
     double e, c, d;
     int i;
@@ -38,32 +41,48 @@ std::vector<int> nondominatedRanks(const std::vector<Objectives>& objs) {
     else
       bad.push_back(i);
   }
-  std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+  std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
     if (a.e != b.e) return a.e < b.e;
     if (a.c != b.c) return a.c < b.c;
-    return a.d < b.d;
+    if (a.d != b.d) return a.d < b.d;
+    return a.i < b.i;
   });
-  auto dominatesKey = [](const Key& a, const Key& b) {
-    return a.e <= b.e && a.c <= b.c && a.d <= b.d && (a.e < b.e || a.c < b.c || a.d < b.d);
+  // A front's staircase: its (cost, disc)-minimal members by ascending cost (so descending
+  // disc), each with the lowest error seen at that (cost, disc).
+  struct Step {
+    double c, d, e;
   };
-  std::vector<std::vector<Key>> fronts;
-  auto frontDominates = [&](size_t f, const Key& k) {
-    const auto& members = fronts[f];
-    for (auto it = members.rbegin(); it != members.rend(); ++it)
-      if (dominatesKey(*it, k)) return true;
-    return false;
+  std::vector<std::vector<Step>> fronts;
+  auto dominated = [](const std::vector<Step>& st, const Key& k) {
+    // The lowest disc among members with cost <= k.c is that of the last such step.
+    auto it = std::upper_bound(st.begin(), st.end(), k.c,
+                               [](double c, const Step& s) { return c < s.c; });
+    if (it == st.begin()) return false;
+    const Step& p = *(it - 1);
+    if (!(p.d <= k.d)) return false;
+    return p.c != k.c || p.d != k.d || p.e < k.e;
+  };
+  auto insert = [](std::vector<Step>& st, const Key& k) {
+    auto it = std::lower_bound(st.begin(), st.end(), k.c,
+                               [](const Step& s, double c) { return s.c < c; });
+    if (it != st.end() && it->c == k.c && it->d == k.d) return;  // keeps the lower error
+    // k is not dominated here, so the steps it covers (cost >= k.c, disc >= k.d) follow it.
+    auto last = it;
+    while (last != st.end() && last->d >= k.d) ++last;
+    it = st.erase(it, last);
+    st.insert(it, Step{k.c, k.d, k.e});
   };
   for (const Key& k : keys) {
     size_t lo = 0, hi = fronts.size();  // the first non-dominating front is in [lo, hi]
     while (lo < hi) {
       const size_t mid = lo + (hi - lo) / 2;
-      if (frontDominates(mid, k))
+      if (dominated(fronts[mid], k))
         lo = mid + 1;
       else
         hi = mid;
     }
     if (lo == fronts.size()) fronts.emplace_back();
-    fronts[lo].push_back(k);
+    insert(fronts[lo], k);
     rank[k.i] = static_cast<int>(lo);
   }
   for (int i : bad) rank[i] = static_cast<int>(fronts.size());
