@@ -68,6 +68,25 @@ sed -e "s#\"front_json\": *\"[^\"]*\"#\"front_json\": \"$RUN_DIR/front.json\"#" 
 grep -q "$RUN_DIR/front.json" "$RUN_DIR/run_dfg.json" ||
   { echo "could not redirect output.front_json in run_dfg.json" >&2; exit 1; }
 
+# The new build runs the same config with NEW_PATCH merged in (a JSON merge patch). The
+# default makes the new build run the base's algorithm (one island, Nelder-Mead on 10 % of
+# offspring, no Levenberg-Marquardt), so the ratio measures the engine, not a different
+# search; NEW_PATCH='{}' compares the shipped defaults instead (LM passes then count as
+# evaluations, and each costs more than a plain one).
+NEW_PATCH=${NEW_PATCH:-'{"search": {"islands": {"count": 1}, "refine": {"offspring_share": 0.1, "lm_iterations": 0, "archive_lm_iterations": 0}}}'}
+python3 - "$RUN_DIR/run_dfg.json" "$RUN_DIR/run_dfg_new.json" "$NEW_PATCH" <<'PY'
+import json, sys
+def merge(a, b):
+    for k, v in b.items():
+        if isinstance(v, dict) and isinstance(a.get(k), dict):
+            merge(a[k], v)
+        else:
+            a[k] = v
+cfg = json.load(open(sys.argv[1]))
+merge(cfg, json.loads(sys.argv[3]))
+json.dump(cfg, open(sys.argv[2], "w"), indent=1)
+PY
+
 json_number() {  # json_number <key> <file>: the first "key": number in the file
   grep -o "\"$1\": *[0-9.eE+-]*" "$2" | head -1 | sed 's/.*: *//'
 }
@@ -76,6 +95,7 @@ echo
 echo "cpu: $(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //') ($(nproc) online)"
 echo "load average: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "search: run_dfg.json, $GENERATIONS generations, --threads $THREADS, $REPS runs each"
+echo "new build's patch: $NEW_PATCH"
 echo
 printf '%-4s %-5s %9s %9s %9s %12s %12s\n' run build wall_s cpu_s search_s evaluations evals/s
 RESULTS=$TMP/results.txt
@@ -84,17 +104,21 @@ run=0
 for ((k = 0; k < REPS; ++k)); do
   for which in base new; do
     bin=$BASE_BIN
-    [[ $which == new ]] && bin=$NEW_BIN
+    cfg=$RUN_DIR/run_dfg.json
+    if [[ $which == new ]]; then
+      bin=$NEW_BIN
+      cfg=$RUN_DIR/run_dfg_new.json
+    fi
     rm -f "$RUN_DIR/front.json"
     run=$((run + 1))
     start=$(date +%s.%N)
     if [[ -x /usr/bin/time ]]; then
       /usr/bin/time -f '%U %S' -o "$TMP/time.txt" \
-        "$bin" run "$RUN_DIR/run_dfg.json" --threads "$THREADS" --generations "$GENERATIONS" -q
+        "$bin" run "$cfg" --threads "$THREADS" --generations "$GENERATIONS" -q
       cpu=$(awk '{printf "%.2f", $1 + $2}' "$TMP/time.txt")
     else  # bash: children's user + system time
       times >"$TMP/times0.txt"  # in this shell, not a $(...) subshell
-      "$bin" run "$RUN_DIR/run_dfg.json" --threads "$THREADS" --generations "$GENERATIONS" -q
+      "$bin" run "$cfg" --threads "$THREADS" --generations "$GENERATIONS" -q
       times >"$TMP/times1.txt"
       t0=$(tail -1 "$TMP/times0.txt")
       t1=$(tail -1 "$TMP/times1.txt")
