@@ -7,24 +7,13 @@
 #include "lgp/io/result.hpp"
 #include "lgp/search/migration.hpp"
 #include "lgp/search/search.hpp"
+#include "test_tables.hpp"
 
 namespace lgp {
 namespace {
 
 Table grid(int n) {
-  Table t;
-  t.input_names = {"mu", "r"};
-  t.output_names = {"y"};
-  t.inputs.resize(2);
-  t.outputs.resize(1);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const double mu = (i + 0.5) / n, r = (j + 0.5) / n;
-      t.inputs[0].push_back(mu);
-      t.inputs[1].push_back(r);
-      t.outputs[0].push_back(mu * r / (mu + 0.5) + 0.1 * std::exp2(-3 * mu));
-    }
-  return t;
+  return test::gridTable(n);
 }
 
 RunConfig islandConfig(int islands, int threads, uint64_t seed = 7) {
@@ -158,6 +147,46 @@ TEST(Islands, LocalTransportDeliversInOrder) {
   EXPECT_EQ(t.sent(), 3u);
   EXPECT_EQ(migrationTarget(2, 3), 0);
   EXPECT_EQ(migrationTarget(0, 3), 1);
+}
+
+}  // namespace
+}  // namespace lgp
+
+namespace lgp {
+namespace {
+
+TEST(Islands, ConfigKeysAreValidatedWithTheirPath) {
+  nlohmann::json j = {{"data", {{"path", "t.csv"}}},
+                      {"search",
+                       {{"islands", {{"count", 3}, {"migration_interval", 5}, {"migrants", 2}}},
+                        {"refine", {{"lm_iterations", 7}, {"archive_lm_iterations", 0}}},
+                        {"variation", {{"wrap_share", 0.25}}}}}};
+  auto c = parseRunConfig(j, ".");
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_EQ(c->search.islands.count, 3);
+  EXPECT_EQ(c->search.islands.migration_interval, 5);
+  EXPECT_EQ(c->search.islands.migrants, 2);
+  EXPECT_EQ(c->search.refine.lm_iterations, 7);
+  EXPECT_EQ(c->search.refine.archive_lm_iterations, 0);
+  EXPECT_EQ(c->search.variation.wrap_share, 0.25);
+  // The keys round-trip through toJson.
+  auto again = parseRunConfig(toJson(*c), ".");
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(toJson(*again), toJson(*c));
+
+  j["search"]["islands"]["count"] = 0;
+  auto bad = parseRunConfig(j, ".");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/islands/count"), std::string::npos) << bad.error();
+  j["search"]["islands"] = {{"count", 2}, {"migrate", 3}};
+  bad = parseRunConfig(j, ".");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/islands/migrate"), std::string::npos) << bad.error();
+  j["search"]["islands"] = {{"count", 2}};
+  j["search"]["refine"] = {{"lm_iterations", -1}};
+  bad = parseRunConfig(j, ".");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/refine/lm_iterations"), std::string::npos) << bad.error();
 }
 
 }  // namespace

@@ -17,25 +17,11 @@
 namespace lgp {
 namespace {
 
-// The program in double precision with double constants (evaluateReferenceRow takes the
-// program's float constants, which cannot be perturbed by a small step).
+// The program in double precision with double constants (the float constants of a Program
+// cannot be perturbed by a small step).
 std::vector<double> evalDouble(const Program& p, const std::vector<double>& consts,
                                const double* inputs) {
-  std::vector<double> regs(p.code.size(), 0.0);
-  for (int i : effectiveIndices(p)) {
-    const Instr& ins = p.code[i];
-    double v[kMaxArity] = {0, 0, 0, 0};
-    for (int a = 0; a < arity(ins.op); ++a) {
-      const Operand& o = ins.args[a];
-      v[a] = o.kind == OperandKind::Var     ? inputs[o.index]
-             : o.kind == OperandKind::Const ? consts[o.index]
-                                            : regs[o.index];
-    }
-    regs[i] = sem::applyDynamic<double>(ins.op, v[0], v[1], v[2], v[3]);
-  }
-  std::vector<double> out;
-  for (uint8_t o : p.outputs) out.push_back(regs[o]);
-  return out;
+  return evaluateReferenceRow(p, inputs, consts.data());
 }
 
 Table randomInputs(int inputs, int outputs, int rows, double lo, double hi, uint64_t seed) {

@@ -5,24 +5,13 @@
 
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
+#include "test_tables.hpp"
 
 namespace lgp {
 namespace {
 
 Table grid(int n) {
-  Table t;
-  t.input_names = {"mu", "r"};
-  t.output_names = {"y"};
-  t.inputs.resize(2);
-  t.outputs.resize(1);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const double mu = (i + 0.5) / n, r = (j + 0.5) / n;
-      t.inputs[0].push_back(mu);
-      t.inputs[1].push_back(r);
-      t.outputs[0].push_back(mu * r / (mu + 0.5) + 0.1 * std::exp2(-3 * mu));
-    }
-  return t;
+  return test::gridTable(n);
 }
 
 RunConfig smallConfig(int threads, uint64_t seed = 3) {

@@ -312,6 +312,7 @@ void parseVariation(const nlohmann::json& j, VariationConfig& v) {
   o.integer("micro_max", v.micro_max, 1, 64);
   o.number("constant_sigma", v.constant_sigma, 0, 1e6);
   o.number("effective_bias", v.effective_bias, 0, 1);
+  o.number("wrap_share", v.wrap_share, 0, 1);
   o.finish();
 }
 
@@ -588,7 +589,8 @@ nlohmann::json toJson(const RunConfig& c) {
               {"micro_rate", s.variation.micro_rate},
               {"micro_max", s.variation.micro_max},
               {"constant_sigma", s.variation.constant_sigma},
-              {"effective_bias", s.variation.effective_bias}}},
+              {"effective_bias", s.variation.effective_bias},
+              {"wrap_share", s.variation.wrap_share}}},
             {"refine",
              {{"offspring_share", s.refine.offspring_share},
               {"lm_iterations", s.refine.lm_iterations},

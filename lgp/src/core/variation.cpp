@@ -195,7 +195,7 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
   syncOutputs(p, shape);
 }
 
-void macroMutate(Program& p, const ProgramShape& shape, Rng& rng) {
+void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_share) {
   const int n = static_cast<int>(p.code.size());
   const int min_len = std::max(1, shape.num_outputs);
   const bool insert = (n < shape.max_length) && (n <= min_len || rng.chance(0.5));
@@ -219,11 +219,10 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng) {
     if (!later.empty()) {
       Instr& user = p.code[later[rng.below(static_cast<uint32_t>(later.size()))]];
       const int a = static_cast<int>(rng.below(arity(user.op)));
-      // Half the time the new opcode wraps the operand it replaces (x becomes op(x, ..)), so
-      // the program grows around what already works instead of losing that operand.
+      // Wrapping keeps the operand it replaces (x becomes op(x, ..)) instead of losing it.
       const Operand old = user.args[a];
       const bool fits = old.kind != OperandKind::Reg || old.index < pos;
-      if (fits && rng.chance(0.5)) {
+      if (fits && rng.chance(wrap_share)) {
         Instr& ins = p.code[pos];
         ins.args[rng.below(arity(ins.op))] = old;
       }

@@ -6,6 +6,12 @@
 namespace lgp {
 
 std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs) {
+  const std::vector<double> constants(p.constants.begin(), p.constants.end());
+  return evaluateReferenceRow(p, inputs, constants.data());
+}
+
+std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs,
+                                         const double* constants) {
   std::vector<double> regs(p.code.size(), 0.0);
   for (int i : effectiveIndices(p)) {
     const Instr& ins = p.code[i];
@@ -13,7 +19,7 @@ std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs)
     for (int a = 0; a < arity(ins.op); ++a) {
       const Operand& o = ins.args[a];
       v[a] = o.kind == OperandKind::Var     ? inputs[o.index]
-             : o.kind == OperandKind::Const ? static_cast<double>(p.constants[o.index])
+             : o.kind == OperandKind::Const ? constants[o.index]
                                             : regs[o.index];
     }
     regs[i] = sem::applyDynamic<double>(ins.op, v[0], v[1], v[2], v[3]);

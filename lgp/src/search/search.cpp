@@ -418,7 +418,7 @@ void Search::step() {
     } else {
       child = isl.pop[a].program;
     }
-    if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng);
+    if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng, var.wrap_share);
     if (rng.chance(var.micro_rate)) {
       const int m = 1 + static_cast<int>(rng.below(var.micro_max));
       for (int k = 0; k < m; ++k)

@@ -78,6 +78,7 @@ struct VariationConfig {
   int micro_max = 2;            // micro mutations per offspring, at most
   double constant_sigma = 0.2;  // relative Gaussian step of a constant mutation
   double effective_bias = 0.9;  // chance a micro mutation targets an effective opcode
+  double wrap_share = 0.5;      // chance an inserted opcode wraps the operand it replaces
 };
 
 enum class RefineMethod : uint8_t {

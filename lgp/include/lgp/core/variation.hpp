@@ -30,7 +30,9 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
                  double effective_bias);
 
 // Macro mutation: insert a random opcode (and wire a later effective opcode to it) or delete
-// one (redirecting its users), shifting references.
-void macroMutate(Program& p, const ProgramShape& shape, Rng& rng);
+// one (redirecting its users), shifting references. With probability wrap_share an inserted
+// opcode takes the operand it replaces as one of its own, so x becomes op(x, ..) and the
+// program grows around what already works.
+void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_share = 0.5);
 
 }  // namespace lgp

@@ -172,6 +172,10 @@ class Interpreter {
 // semantics (semantics.hpp); used by tests and for final scoring.
 std::vector<std::vector<double>> evaluateReference(const Program& p, const Table& t);
 std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs);
+// The same with the constants given in double (one per constant slot), e.g. to take finite
+// differences smaller than a float step.
+std::vector<double> evaluateReferenceRow(const Program& p, const double* inputs,
+                                         const double* constants);
 
 // Naive per-row scalar interpreter (switch per opcode per row), kept as the baseline the
 // benchmarks compare against. Not used by the search.
