@@ -1,4 +1,4 @@
-// Minimal SVG plots: people look at the data before they fit it (seed 000 section 4.3).
+// Minimal SVG plots: people look at the data before they fit it.
 #include <algorithm>
 #include <cmath>
 #include <fstream>

@@ -308,7 +308,7 @@ TEST(EmitRoundTrip, DoubleCppIsBitIdenticalToTheReference) {
   }
 }
 
-// The published DFG formulas of ../shared/docs/PUBLISHED.md in the parser's syntax.
+// Published DFG formulas (Karis 2014; Iwanicki & Pesce 2015) in the parser's syntax.
 std::vector<std::pair<std::string, std::vector<std::string>>> publishedDfg() {
   return {
       {"karis",

@@ -1,4 +1,4 @@
-// dfg: the split-sum environment BRDF (TABLES.md "dfg"; seed 000 section 5.3; seed 004 5.3.4).
+// dfg: the split-sum environment BRDF (Karis 2013, "Real Shading in Unreal Engine 4").
 //
 // For a view cosine mu = n.v and GGX roughness alpha,
 //   integral over the hemisphere of f_spec(l, v) (n.l) dl = F0 * A + F90 * B,

@@ -1,4 +1,4 @@
-// energy: Kulla-Conty energy compensation terms (TABLES.md "energy"; seed 003; seed 004 4.7.2).
+// energy: Kulla-Conty energy compensation terms (Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks").
 //
 //   E(mu, r)    = integral of f_spec(l, v) (n.l) dl with F = 1      (see dfg.hpp)
 //   1 - E(mu, r)

@@ -1,5 +1,5 @@
 // normalization: energy normalization N of the smoothed representative-point sphere light
-// (TABLES.md "normalization"; seed 000 sections 4.2.3 and 4.3).
+// (Karis 2013, "Real Shading in Unreal Engine 4").
 //
 // The exact integral computed
 // ---------------------------
@@ -16,7 +16,7 @@
 // l_rep(v) with the same irradiance at normal incidence, E_perp = pi sin^2(theta_s) L_e:
 //   P_rep  = pi sin^2(theta_s) L_e integral_{v in H} f(l_rep(v), v) (n.l_rep) (n.v) dv
 //          = pi sin^2(theta_s) L_e 2 pi integral_0^1 g(mu_v) mu_v dmu_v,   g = f (n.l_rep)
-// (azimuthally symmetric because c = n). Representative point (seed 000 eq. 2a/2b) with the
+// (azimuthally symmetric because c = n). Representative point (Karis 2013) with the
 // light centre at unit distance, L = c, sourceRadius R = sin(theta_s), reflection ray r of v:
 //   centerToRay = (L.r) r - L,
 //   l_rep = normalize(L + centerToRay * softmin(1, R / |centerToRay|)),

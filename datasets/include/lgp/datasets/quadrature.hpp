@@ -1,4 +1,4 @@
-// Integrators for the ground-truth generators (seed 000 section 3.1), in double precision.
+// Integrators for the ground-truth generators , in double precision.
 //
 // All three integrate a vector-valued integrand f: R^D -> R^K over a union of axis-aligned
 // boxes, and return the integral with a per-component error estimate:

@@ -104,7 +104,7 @@ struct NelderMeadSchedule {
 
 enum class MultiOutputMode : uint8_t {
   Joint,   // one program computes every output; shared sub-expressions cost once
-  TwoStep  // seed 000 section 5.3: fit `first` alone, then the others with its chosen
+  TwoStep  // fit `first` alone, then the others with its chosen
            // expression as an extra input; the result is one program (the DAG of both)
 };
 

@@ -36,7 +36,7 @@ inline constexpr float kExpClamp = 126.0f;         // |exponent| limit of exp2/e
 inline constexpr int kMaxArity = 4;
 
 // Cost targets. Costs are in "FMA-equivalent issue slots" of the target; see
-// ../shared/docs/PUBLISHED.md. gpu-generic: FMA-class 1, special function 4, source
+// the vendors' ISA and scheduling documents named per target below. gpu-generic: FMA-class 1, special function 4, source
 // modifiers (abs, neg, saturate) free. nvidia: SFU (MUFU) ops 4 (16-32 vs 64-128 results/clk/SM),
 // sqrt = rsq+rcp, div = rcp+mul. gcn: quarter-rate transcendentals 4 (SISchedule.td), native
 // v_sqrt, sin/cos need a 1/2pi pre-multiply. rdna: GFX10 latency ratio WriteTrans32/Write32Bit

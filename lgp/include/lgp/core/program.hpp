@@ -1,4 +1,4 @@
-// Linear-GP programs (seed 000 section 5.2).
+// Linear-GP programs (Brameier & Banzhaf 2007, "Linear Genetic Programming").
 //
 // A program is a string of at most `max_length` opcodes. Each opcode applies an operator to up
 // to four operands (only select uses four); an operand is an input variable, a slot of the

@@ -1,4 +1,4 @@
-// The data-parallel bytecode interpreter (seed 000 section 5.2).
+// The data-parallel bytecode interpreter.
 //
 // Rules it relies on:
 //  1. Bind once, evaluate many: a Program is decoded once into a BoundProgram holding only its

@@ -1,7 +1,7 @@
-// The three objectives of the search (seed 000 section 5.1), all minimised:
+// The three objectives of the search, all minimised:
 //  error          RMSE (default), max-abs, MAE or mean relative error against the double
 //                 ground truth, optionally weighted per row. When an output is fitted on a
-//                 transformed target (seed 000 section 4.3), the program's value is mapped
+//                 transformed target, the program's value is mapped
 //                 back through the inverse transform and the error is measured on the
 //                 original. Several outputs combine by mean (default) or max.
 //  cost           sum over effective opcodes of the per-operator cost of a target model.

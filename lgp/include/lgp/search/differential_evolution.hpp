@@ -1,11 +1,11 @@
-// Differential evolution (seed 000 section 3.2.1), the global step of constant refinement:
+// Differential evolution (Storn & Price 1997), the global step of constant refinement:
 // it explores around the current constants and hands its best point to Nelder-Mead
-// (seed 000 section 3.3: "combine a global strategy with a local post-process").
+// (a global strategy with a local post-process).
 // Strategy: DE/current-to-pbest/1/bin (JADE, without archive or parameter adaptation):
 //   v = x_i + F (x_pbest - x_i) + F (x_r1 - x_r2),
 // x_pbest drawn from the best ceil(p_best * NP) members (at least 2), r1 != r2 != i, then
 // binomial crossover with rate CR (one coordinate always from v). F is dithered per trial,
-// uniform in [f, 1) (seed 000 section 3.2.1). Greedier than DE/rand/1, so it converges within
+// uniform in [f, 1). Greedier than DE/rand/1, so it converges within
 // the small budgets of refinement, while the random p-best pool and the dither keep the small
 // automatic populations (8 members for 1-D) from collapsing early: with a fixed F = 0.7,
 // Rosenbrock-2D from (-1.2, 1) stays above 1e-6 after 2000 evaluations in 30 of 30 seeds

@@ -1,4 +1,4 @@
-// Nelder-Mead downhill simplex (seed 000 section 3.2.2) with restarts, used to refine the
+// Nelder-Mead downhill simplex (Nelder & Mead 1965) with restarts, used to refine the
 // constants of promising programs. Derivative-free, so it works on RMSE/max-abs directly.
 #pragma once
 

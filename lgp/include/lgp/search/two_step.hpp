@@ -1,4 +1,4 @@
-// The two-step multi-output mode (seed 000 section 5.3: "B" was regressed first, then "A"
+// The two-step multi-output mode (fit "B" first, then "A"
 // with B's chosen expression available as an input).
 //
 //   1. Search `first` alone (per-output error), spending `first_share` of every budget.
