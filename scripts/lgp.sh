@@ -18,6 +18,7 @@ PACKAGES=(
   libeigen3-dev nlohmann-json3-dev libspdlog-dev libcxxopts-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcpp-httplib-dev libsqlite3-dev
+  openmpi-bin libopenmpi-dev
   glslang-tools
   chromium
 )

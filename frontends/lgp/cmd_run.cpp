@@ -2,14 +2,19 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cxxopts.hpp>
+#include <fstream>
 #include <iostream>
+#include <optional>
+#include <sstream>
 
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/search/mpi_driver.hpp"
 #include "lgp/search/search.hpp"
 #include "lgp/search/two_step.hpp"
 #include "table_source.hpp"
@@ -30,6 +35,12 @@ extern "C" void onSigint(int) {
   if (auto* s = g_two_step.load()) s->requestStop();
 }
 
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
 std::string fmtErr(double e) {
   if (!std::isfinite(e)) return "-";
   char b[32];
@@ -47,16 +58,68 @@ int runMain(int argc, char** argv) {
       "threads", "override search.threads", cxxopts::value<int>())(
       "generations", "override search.generations", cxxopts::value<int>())(
       "wall-time", "override search.wall_time_s", cxxopts::value<double>())(
-      "q,quiet", "no progress output")("h,help", "this help");
+      "checkpoint", "checkpoint file (overrides output.checkpoint), written atomically",
+      cxxopts::value<std::string>())(
+      "checkpoint-interval", "seconds between checkpoints (output.checkpoint_interval_s)",
+      cxxopts::value<double>())("resume", "start from the checkpoint file")(
+      "status", "write the progress counters to this JSON file at every progress tick",
+      cxxopts::value<std::string>())("q,quiet", "no progress output")("h,help", "this help");
   opts.parse_positional({"config"});
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "config", "no config given");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
   const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
-  auto cfg = lgp::loadRunConfig(args["config"].as<std::string>());
-  if (!cfg) {
-    std::fprintf(stderr, "error: %s\n", cfg.error().c_str());
+
+  // Under an MPI launcher every rank runs this; rank 0 reads the files, prints and writes.
+  if (const int tasks = lgp::mpi::slurmTasksWithoutPmi()) {
+    std::fprintf(stderr,
+                 "error: srun started %d tasks without MPI (no PMI), so each would run the whole "
+                 "search: use `srun --mpi=pmix` (or pmi2)\n",
+                 tasks);
     return 2;
   }
+#ifdef LGP_HAVE_MPI
+  std::optional<lgp::mpi::Session> mpi;
+  if (lgp::mpi::launchedByLauncher()) mpi.emplace(&argc, &argv);
+  const int rank = mpi ? mpi->rank() : 0;
+  const int ranks = mpi ? mpi->size() : 1;
+#else
+  if (lgp::mpi::launchedByLauncher()) {
+    std::fprintf(stderr,
+                 "error: an MPI launcher started this lgp, which was built without MPI "
+                 "(LGP_WITH_MPI=OFF): every rank would run the whole search on its own. Install "
+                 "OpenMPI (libopenmpi-dev) and rebuild, or run lgp without the launcher\n");
+    return 2;
+  }
+  const int rank = 0, ranks = 1;
+#endif
+  const bool root = rank == 0;
+  const bool distributed = ranks > 1;
+  // Every rank reaches the same verdict on the same input; rank 0 says it.
+  auto fail = [&](const std::string& msg, int code) {
+    if (root) std::fprintf(stderr, "error: %s\n", msg.c_str());
+    return code;
+  };
+  const std::string config_path = args["config"].as<std::string>();
+  auto cfg = [&]() -> lgp::Expected<lgp::RunConfig> {
+#ifdef LGP_HAVE_MPI
+    if (distributed) {
+      lgp::Expected<std::string> text = lgp::Status::error(config_path + ": cannot open config");
+      if (root) {
+        std::ifstream in(config_path);
+        if (in) {
+          std::stringstream ss;
+          ss << in.rdbuf();
+          text = ss.str();
+        }
+      }
+      auto shared = lgp::mpi::shareBytes(text);
+      if (!shared) return shared.status();
+      return lgp::parseRunConfigText(*shared, config_path);
+    }
+#endif
+    return lgp::loadRunConfig(config_path);
+  }();
+  if (!cfg) return fail(cfg.error(), 2);
   if (args.count("seed")) cfg->search.seed = args["seed"].as<uint64_t>();
   if (args.count("threads")) cfg->search.threads = std::max(0, args["threads"].as<int>());
   if (args.count("generations"))
@@ -65,55 +128,66 @@ int runMain(int argc, char** argv) {
     cfg->search.wall_time_s = std::max(0.0, args["wall-time"].as<double>());
   if (args.count("out")) cfg->output.front_json = args["out"].as<std::string>();
   if (args.count("csv")) cfg->output.front_csv = args["csv"].as<std::string>();
-  if (auto st = cfg->validate(); !st) {
-    std::fprintf(stderr, "error: %s\n", st.message().c_str());
-    return 2;
-  }
-  auto table = lgp::cli::loadRunTable(*cfg);
-  if (!table) {
-    std::fprintf(stderr, "error: %s\n", table.error().c_str());
-    return 2;
-  }
+  if (args.count("checkpoint")) cfg->output.checkpoint = args["checkpoint"].as<std::string>();
+  if (args.count("checkpoint-interval"))
+    cfg->output.checkpoint_interval_s = std::max(0.0, args["checkpoint-interval"].as<double>());
+  const bool resume = args.count("resume") > 0;
+  const std::string status_path = args.count("status") ? args["status"].as<std::string>() : "";
+  if (auto st = cfg->validate(); !st) return fail(st.message(), 2);
+  if (resume && cfg->output.checkpoint.empty())
+    return fail("--resume: no checkpoint file named (--checkpoint or output.checkpoint)", 2);
+  const bool two_step = cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
+  if (two_step && !cfg->output.checkpoint.empty())
+    return fail("/output/checkpoint: not available with two_step (no checkpoint across steps)", 2);
+  if (two_step && distributed)
+    return fail("/search/multi_output: two_step does not run over MPI; run it in one process", 2);
+  lgp::Expected<lgp::Table> table = lgp::Status::error("no table");
+  if (root) table = lgp::cli::loadRunTable(*cfg);
+#ifdef LGP_HAVE_MPI
+  if (distributed) table = lgp::mpi::shareTable(table);
+#endif
+  if (!table) return fail(table.error(), 2);
 #ifdef LGP_HAVE_EMIT
   // Reference formulas are checked before the night's work starts, not after.
-  if (auto st = lgp::emit::checkReferences(*cfg, *table); !st) {
-    std::fprintf(stderr, "error: %s\n", st.message().c_str());
-    return 2;
-  }
+  if (auto st = lgp::emit::checkReferences(*cfg, *table); !st) return fail(st.message(), 2);
 #endif
-  const bool quiet = args.count("quiet") > 0;
+  const bool quiet = args.count("quiet") > 0 || !root;
   const bool tty = isatty(fileno(stderr));
-  if (!quiet)
-    std::fprintf(stderr, "lgp: %zu rows, inputs [%zu], outputs [%zu], population %d, seed %llu\n",
+  if (!quiet) {
+    std::fprintf(stderr, "lgp: %zu rows, inputs [%zu], outputs [%zu], population %d, seed %llu",
                  table->rows(), table->numInputs(), table->numOutputs(), cfg->search.population,
                  static_cast<unsigned long long>(cfg->search.seed));
+    if (distributed)
+      std::fprintf(stderr, ", %d MPI ranks (%s migration)", ranks,
+                   std::string(lgp::toString(cfg->mpi.migration)).c_str());
+    std::fprintf(stderr, "\n");
+  }
 
   std::vector<lgp::NamedProgram> seeds;
-  if (cfg->search.seed_references) {
+  if (cfg->search.seed_references && !resume) {
 #ifdef LGP_HAVE_EMIT
     auto progs = lgp::emit::referencePrograms(*cfg, *table);
-    if (!progs) {
-      std::fprintf(stderr, "error: %s\n", progs.error().c_str());
-      return 2;
-    }
+    if (!progs) return fail(progs.error(), 2);
     seeds = std::move(*progs);
 #else
-    std::fprintf(stderr, "error: /search/seed_references: needs the emit library (parser)\n");
-    return 2;
+    return fail("/search/seed_references: needs the emit library (parser)", 2);
 #endif
   }
-  const bool two_step = cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
-  if (two_step && !seeds.empty()) {
-    std::fprintf(stderr, "error: /search/seed_references: not available with two_step\n");
-    return 2;
-  }
+  if (two_step && !seeds.empty())
+    return fail("/search/seed_references: not available with two_step", 2);
   std::unique_ptr<lgp::Search> single;
   std::unique_ptr<lgp::TwoStepSearch> stepped;
   if (two_step) {
     stepped = std::make_unique<lgp::TwoStepSearch>(*cfg, std::move(*table));
     g_two_step.store(stepped.get());
-  } else {
+  } else if (!distributed) {
     single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
+    if (resume) {
+      auto ck = lgp::readCheckpointFile(cfg->output.checkpoint);
+      if (!ck) return fail(ck.error(), 2);
+      if (auto st = single->restore(*ck); !st)
+        return fail(cfg->output.checkpoint + ": " + st.message(), 2);
+    }
     // A reference that does not fit the program shape is reported, not fatal.
     for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
@@ -121,8 +195,16 @@ int runMain(int argc, char** argv) {
   }
   std::signal(SIGINT, onSigint);
   std::signal(SIGTERM, onSigint);
+  // Open MPI's mpirun forwards SIGUSR1 to every rank and, unlike SIGTERM, kills no one after it.
+  std::signal(SIGUSR1, onSigint);
   int current_step = 0;
+  bool status_failed = false;
   auto progress = [&](const lgp::SearchProgress& p) {
+    if (!status_path.empty() && root) {
+      auto st = lgp::writeJsonAtomic(lgp::progressToJson(p), status_path, 2);
+      if (!st && !status_failed) std::fprintf(stderr, "warning: %s\n", st.message().c_str());
+      status_failed = !st;
+    }
     if (quiet) return;
     std::string levels;
     for (const auto& [c, e] : p.best_at_cost) {
@@ -131,10 +213,14 @@ int runMain(int argc, char** argv) {
       levels += b;
     }
     const std::string step = current_step > 0 ? "step " + std::to_string(current_step) + "  " : "";
-    std::fprintf(stderr, "%s%sgen %d  evals %llu  %.3g evals/s  front %zu  best %s |%s%s",
+    std::string mpi_info;
+    if (p.ranks > 1)
+      mpi_info = " | ranks " + std::to_string(p.ranks) + "  migrants " +
+                 std::to_string(p.migrants) + " (" + std::to_string(p.remote_migrants) + " remote)";
+    std::fprintf(stderr, "%s%sgen %d  evals %llu  %.3g evals/s  front %zu  best %s |%s%s%s",
                  tty ? "\r\033[K" : "", step.c_str(), p.generation,
                  static_cast<unsigned long long>(p.evaluations), p.evals_per_s, p.front_size,
-                 fmtErr(p.best_error).c_str(), levels.c_str(), tty ? "" : "\n");
+                 fmtErr(p.best_error).c_str(), levels.c_str(), mpi_info.c_str(), tty ? "" : "\n");
     std::fflush(stderr);
   };
   if (stepped) {
@@ -147,9 +233,51 @@ int runMain(int argc, char** argv) {
       std::fprintf(stderr, "%slgp: step 1 picked %s = %s\n", tty ? "\n" : "",
                    stepped->pickColumn().c_str(),
                    lgp::toInfix(stepped->pick(), stepped->result().table().input_names)[0].c_str());
-  } else {
-    single->run(progress);
+  } else if (single) {
+    // Search::run with checkpoints: every checkpoint_interval_s and once at the end.
+    const std::string& ck_path = cfg->output.checkpoint;
+    bool ck_failed = false;
+    auto checkpoint = [&]() {
+      if (ck_path.empty()) return;
+      auto st = lgp::writeCheckpointFile(single->checkpoint(), ck_path);
+      if (!st && !ck_failed) std::fprintf(stderr, "\nwarning: %s\n", st.message().c_str());
+      ck_failed = !st;
+    };
+    auto last_progress = Clock::now(), last_checkpoint = Clock::now();
+    if (!resume) single->initialize();
+    progress(single->progress());
+    while (!single->done()) {
+      single->step();
+      if (since(last_progress) >= cfg->output.progress_interval_s) {
+        progress(single->progress());
+        last_progress = Clock::now();
+      }
+      if (since(last_checkpoint) >= cfg->output.checkpoint_interval_s) {
+        checkpoint();
+        last_checkpoint = Clock::now();
+      }
+    }
+    checkpoint();
+    progress(single->progress());
     if (!quiet && tty) std::fprintf(stderr, "\n");
+  } else {
+#ifdef LGP_HAVE_MPI
+    lgp::mpi::DistributedOptions opt;
+    opt.seeds = std::move(seeds);
+    opt.checkpoint_path = cfg->output.checkpoint;
+    opt.checkpoint_interval_s = cfg->output.checkpoint_interval_s;
+    opt.resume = resume;
+    opt.on_progress = progress;
+    opt.on_warning = [&](const std::string& w) {
+      std::fprintf(stderr, "%swarning: %s\n", tty ? "\r\033[K" : "", w.c_str());
+    };
+    opt.on_search = [](lgp::Search* s) { g_search.store(s); };
+    auto result = lgp::mpi::runDistributed(*cfg, *table, std::move(opt));
+    if (!result) return fail(result.error(), 2);
+    if (!root) return g_interrupts.load() > 0 ? 130 : 0;
+    single = std::move(*result);
+    if (!quiet && tty) std::fprintf(stderr, "\n");
+#endif
   }
   g_search.store(nullptr);
   g_two_step.store(nullptr);

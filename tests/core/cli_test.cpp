@@ -134,4 +134,40 @@ TEST_F(Cli, InterruptStillWritesTheFront) {
   EXPECT_GT(front["members"].size(), 0u);
 }
 
+TEST_F(Cli, CheckpointResumeAndStatusFile) {
+  // A run stopped at generation 6 with a checkpoint, resumed to 12, ends with the front of an
+  // uninterrupted 12-generation run: the checkpoint holds the whole state.
+  const std::string cfg = config(base(6)).string();
+  const std::string ck = (dir / "ck.json").string(), st = (dir / "status.json").string();
+  auto r = sh(lgp() + " run " + cfg + " -q --checkpoint " + ck + " --status " + st);
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream sin(st);
+  const auto status = nlohmann::json::parse(sin);
+  EXPECT_EQ(status["format"], "lgp-status/1");
+  EXPECT_EQ(status["generation"], 6);
+  EXPECT_TRUE(status["finished"].get<bool>());
+  r = sh(lgp() + " run " + cfg + " -q --checkpoint " + ck + " --resume --generations 12 -o " +
+         (dir / "resumed.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  r = sh(lgp() + " run " + cfg + " -q --generations 12 -o " + (dir / "straight.json").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream a(dir / "resumed.json"), b(dir / "straight.json");
+  const auto ja = nlohmann::json::parse(a), jb = nlohmann::json::parse(b);
+  EXPECT_EQ(ja["progress"]["generation"], 12);
+  EXPECT_EQ(ja["members"], jb["members"]);
+  // Resuming needs a checkpoint that exists and fits the config.
+  r = sh(lgp() + " run " + cfg + " -q --checkpoint " + (dir / "none.json").string() + " --resume");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("none.json: no checkpoint file there"), std::string::npos) << r.out;
+  r = sh(lgp() + " run " + cfg + " -q --resume");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--resume: no checkpoint file named"), std::string::npos) << r.out;
+  auto other = base(6);
+  other["search"]["population"] = 64;
+  r = sh(lgp() + " run " + config(other, "other.json").string() + " -q --checkpoint " + ck +
+         " --resume");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("made with a different config"), std::string::npos) << r.out;
+}
+
 }  // namespace

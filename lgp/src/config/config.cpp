@@ -16,6 +16,10 @@ std::string_view toString(MultiOutputMode m) {
   return m == MultiOutputMode::TwoStep ? "two_step" : "joint";
 }
 
+std::string_view toString(MigrationMode m) {
+  return m == MigrationMode::Sync ? "sync" : "async";
+}
+
 std::vector<Op> defaultOps() {
   std::vector<Op> ops;
   for (const auto& i : allOps())
@@ -358,6 +362,8 @@ void parseOutput(const nlohmann::json& j, OutputConfig& out) {
   o.string("front_json", out.front_json);
   o.string("front_csv", out.front_csv);
   o.number("progress_interval_s", out.progress_interval_s, 0, 1e6);
+  o.string("checkpoint", out.checkpoint);
+  o.number("checkpoint_interval_s", out.checkpoint_interval_s, 0, 1e9);
   if (o.has("progress_cost_levels")) {
     const auto& v = o.at("progress_cost_levels");
     if (!v.is_array()) fail("/output/progress_cost_levels", "must be an array of numbers");
@@ -367,6 +373,24 @@ void parseOutput(const nlohmann::json& j, OutputConfig& out) {
       out.progress_cost_levels.push_back(v[i].get<double>());
     }
   }
+  o.finish();
+}
+
+void parseMpi(const nlohmann::json& j, MpiConfig& m) {
+  Obj o(j, "/mpi");
+  if (o.has("launcher") || o.has("hostfile"))
+    fail("/mpi",
+         "the launcher and the hostfile are set by whoever starts the run (mpirun's "
+         "command line, or lgpd's daemon config), not by the run config");
+  o.integer("np", m.np, 0, 4096);
+  o.enumeration(
+      "migration", m.migration,
+      [](const std::string& s) -> std::optional<MigrationMode> {
+        if (s == "async") return MigrationMode::Async;
+        if (s == "sync") return MigrationMode::Sync;
+        return std::nullopt;
+      },
+      "\"async\", \"sync\"");
   o.finish();
 }
 
@@ -482,6 +506,7 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
     if (o.has("search")) parseSearch(o.at("search"), c.search);
     if (o.has("eval")) parseEval(o.at("eval"), c.eval);
     if (o.has("output")) parseOutput(o.at("output"), c.output);
+    if (o.has("mpi")) parseMpi(o.at("mpi"), c.mpi);
     if (o.has("references")) {
       const auto& r = o.at("references");
       if (!r.is_array()) fail("/references", "must be an array of {\"name\", \"expr\"} objects");
@@ -507,9 +532,15 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
 Expected<RunConfig> loadRunConfig(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) return Status::error(path.string() + ": cannot open config");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseRunConfigText(text.str(), path);
+}
+
+Expected<RunConfig> parseRunConfigText(const std::string& text, const std::filesystem::path& path) {
   nlohmann::json j;
   try {
-    in >> j;
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     return Status::error(path.string() + ": invalid JSON: " + e.what());
   }
@@ -614,7 +645,10 @@ nlohmann::json toJson(const RunConfig& c) {
            {{"front_json", c.output.front_json},
             {"front_csv", c.output.front_csv},
             {"progress_interval_s", c.output.progress_interval_s},
-            {"progress_cost_levels", c.output.progress_cost_levels}}},
+            {"progress_cost_levels", c.output.progress_cost_levels},
+            {"checkpoint", c.output.checkpoint},
+            {"checkpoint_interval_s", c.output.checkpoint_interval_s}}},
+          {"mpi", {{"np", c.mpi.np}, {"migration", std::string(toString(c.mpi.migration))}}},
           {"references", c.references}};
 }
 

@@ -1,7 +1,11 @@
 #include "lgp/io/result.hpp"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -86,7 +90,9 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"threads", s.threads()},
             {"islands", p.islands},
             {"migrants", p.migrants},
-            {"restarts", p.restarts}}},
+            {"restarts", p.restarts},
+            {"ranks", p.ranks},
+            {"remote_migrants", p.remote_migrants}}},
           {"cost_model", std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
           {"error_channels", channelNames(err_cfg, t.output_names)},
@@ -94,19 +100,74 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
           {"references", cfg.references}};
 }
 
-Status writeFrontJson(const nlohmann::json& front, const std::filesystem::path& path) {
-  // Write to a temporary file and rename, so a crash never leaves a half-written front.
+Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& path, int indent) {
   const auto tmp = path.string() + ".tmp";
   {
-    std::ofstream out(tmp);
-    if (!out) return Status::error(path.string() + ": cannot write");
-    out << front.dump(2) << "\n";
-    if (!out) return Status::error(path.string() + ": write failed");
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) return Status::error(path.string() + ": cannot write (" + std::strerror(errno) + ")");
+    const std::string text = j.dump(indent) + "\n";
+    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
+                    std::fflush(f) == 0 && ::fsync(fileno(f)) == 0;
+    const int err = errno;
+    if (std::fclose(f) != 0 || !ok) {
+      std::remove(tmp.c_str());
+      return Status::error(path.string() + ": write failed (" + std::strerror(err) + ")");
+    }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) return Status::error(path.string() + ": " + ec.message());
   return Status::ok();
+}
+
+Status writeFrontJson(const nlohmann::json& front, const std::filesystem::path& path) {
+  // A crash never leaves a half-written front.
+  return writeJsonAtomic(front, path, 2);
+}
+
+Status writeCheckpointFile(const nlohmann::json& state, const std::filesystem::path& path) {
+  return writeJsonAtomic(state, path, -1);
+}
+
+Expected<nlohmann::json> readCheckpointFile(const std::filesystem::path& path) {
+  const std::string f = path.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    return Status::error(f + ": no checkpoint file there");
+  std::ifstream in(path);
+  if (!in) return Status::error(f + ": cannot open");
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(f + ": invalid JSON: " + e.what());
+  }
+  if (!j.is_object() || j.value("format", "") != "lgp-checkpoint/2")
+    return Status::error(f + ": /format: expected \"lgp-checkpoint/2\"");
+  return j;
+}
+
+nlohmann::json progressToJson(const SearchProgress& p) {
+  nlohmann::json levels = nlohmann::json::array();
+  for (const auto& [c, e] : p.best_at_cost)
+    levels.push_back({c, std::isfinite(e) ? nlohmann::json(e) : nlohmann::json(nullptr)});
+  return {{"format", "lgp-status/1"},
+          {"generation", p.generation},
+          {"evaluations", p.evaluations},
+          {"elapsed_s", p.elapsed_s},
+          {"evals_per_s", p.evals_per_s},
+          {"front_size", p.front_size},
+          {"best_error",
+           std::isfinite(p.best_error) ? nlohmann::json(p.best_error) : nlohmann::json(nullptr)},
+          {"best_at_cost", levels},
+          {"finished", p.finished},
+          {"stop_reason", p.stop_reason},
+          {"islands", p.islands},
+          {"migrants", p.migrants},
+          {"remote_migrants", p.remote_migrants},
+          {"restarts", p.restarts},
+          {"ranks", p.ranks},
+          {"threads", p.threads}};
 }
 
 namespace {

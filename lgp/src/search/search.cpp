@@ -172,7 +172,7 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
 }
 
 void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
-                         uint64_t stream) {
+                         uint64_t stream, uint64_t index_base) {
   const int n = static_cast<int>(inds.size());
   uint64_t evals = 0;
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) reduction(+ : evals)
@@ -181,8 +181,9 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
     inds[i].obj = score(scorer(thread), inds[i].program);
     ++evals;
     if (!refine.empty() && refine[i])
-      refineOne(thread, inds[i], hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 3),
-                evals, false);
+      refineOne(thread, inds[i],
+                hashSeed(cfg_.search.seed, stream, index_base + static_cast<uint64_t>(i), 3), evals,
+                false);
   }
   evaluations_ += evals;
   session_evals_ += evals;
@@ -279,19 +280,50 @@ int Search::tournament(const Island& isl, Rng& rng) const {
   return best;
 }
 
+int Search::islandCount(const RunConfig& cfg) {
+  return std::clamp(cfg.search.islands.count, 1, std::max(1, cfg.search.population / 4));
+}
+
+void Search::setIslandRange(int first, int count, int total) {
+  island_first_ = first;
+  island_total_ = total;
+  islands_.assign(count, Island{});
+  range_set_ = true;
+}
+
+void Search::setTransport(std::unique_ptr<MigrationTransport> transport) {
+  transport_ = std::move(transport);
+}
+
 int Search::islandSize(int k) const {
   const int n = cfg_.search.population;
-  const int count = static_cast<int>(islands_.size());
+  const int count = island_total_ > 0 ? island_total_ : static_cast<int>(islands_.size());
   return n / count + (k < n % count ? 1 : 0);
+}
+
+int Search::localPopulation() const {
+  int n = 0;
+  for (int k = 0; k < static_cast<int>(islands_.size()); ++k) n += islandSize(island_first_ + k);
+  return n;
+}
+
+int Search::offspringBase() const {
+  int n = 0;
+  for (int k = 0; k < island_first_; ++k) n += islandSize(k);
+  return n;
 }
 
 void Search::migrate(int generation) {
   const auto& ic = cfg_.search.islands;
   const int count = static_cast<int>(islands_.size());
-  if (count < 2 || ic.migrants == 0) return;
-  // Each island sends its lowest-error member and random others from its first front.
+  const int total = island_total_;
+  if (total < 2 || ic.migrants == 0) return;
+  // Each island sends its lowest-error member and random others from its first front. An
+  // island with nothing to send still sends (an empty batch), so that a synchronous transport
+  // always gets one message per island and round.
   for (int k = 0; k < count; ++k) {
     const Island& isl = islands_[k];
+    const int global = island_first_ + k;
     std::vector<int> first;
     int best = -1;
     for (int i = 0; i < static_cast<int>(isl.pop.size()); ++i) {
@@ -299,10 +331,13 @@ void Search::migrate(int generation) {
       first.push_back(i);
       if (best < 0 || isl.pop[i].obj.error < isl.pop[best].obj.error) best = i;
     }
-    if (first.empty()) continue;
-    Rng rng(
-        hashSeed(cfg_.search.seed, static_cast<uint64_t>(generation), static_cast<uint64_t>(k), 5));
     std::vector<Migrant> out;
+    if (first.empty()) {
+      transport_->send(global, migrationTarget(global, total), std::move(out));
+      continue;
+    }
+    Rng rng(hashSeed(cfg_.search.seed, static_cast<uint64_t>(generation),
+                     static_cast<uint64_t>(global), 5));
     out.push_back({isl.pop[best].program, isl.pop[best].obj});
     first.erase(std::find(first.begin(), first.end(), best));
     while (static_cast<int>(out.size()) < ic.migrants && !first.empty()) {
@@ -310,18 +345,18 @@ void Search::migrate(int generation) {
       out.push_back({isl.pop[first[j]].program, isl.pop[first[j]].obj});
       first.erase(first.begin() + static_cast<std::ptrdiff_t>(j));
     }
-    transport_->send(k, migrationTarget(k, count), std::move(out));
+    transport_->send(global, migrationTarget(global, total), std::move(out));
   }
   // Arrivals join the island's pool; the worst leave (elitist, like any survival).
   std::vector<std::vector<Migrant>> arrived(count);
-  for (int k = 0; k < count; ++k) arrived[k] = transport_->receive(k);
+  for (int k = 0; k < count; ++k) arrived[k] = transport_->receive(island_first_ + k);
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) {
     if (arrived[k].empty()) continue;
     Island& isl = islands_[k];
     std::vector<Individual> pool = std::move(isl.pop);
     for (auto& m : arrived[k]) pool.push_back({std::move(m.program), m.obj, false});
-    survive(isl, pool, islandSize(k));
+    survive(isl, pool, islandSize(island_first_ + k));
   }
 }
 
@@ -339,30 +374,34 @@ std::vector<std::string> Search::addSeeds(const std::vector<NamedProgram>& seeds
 
 void Search::initialize() {
   if (initialized_) return;
-  const int n = cfg_.search.population;
-  const int count = std::clamp(cfg_.search.islands.count, 1, std::max(1, n / 4));
-  islands_.assign(count, Island{});
-  transport_ = std::make_unique<LocalTransport>(count);
+  if (!range_set_) {
+    island_total_ = islandCount(cfg_);
+    islands_.assign(island_total_, Island{});
+  }
+  const int count = static_cast<int>(islands_.size());
+  if (!transport_) transport_ = std::make_unique<LocalTransport>(island_total_);
+  const int n = localPopulation();
+  const uint64_t base = static_cast<uint64_t>(offspringBase());
   InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
                   cfg_.program.const_min, cfg_.program.const_max};
   std::vector<Individual> inds(n);
   for (int i = 0; i < n; ++i) {
-    Rng rng(hashSeed(cfg_.search.seed, 0, static_cast<uint64_t>(i), 1));
+    Rng rng(hashSeed(cfg_.search.seed, 0, base + static_cast<uint64_t>(i), 1));
     inds[i].program = randomProgram(shape_, init, rng);
   }
   // Seeds take the first slots of every island (at most half of each: the rest stays diverse).
   int first = 0;
   for (int k = 0; k < count; ++k) {
-    const int size = islandSize(k);
+    const int size = islandSize(island_first_ + k);
     for (int j = 0; j < static_cast<int>(seeds_.size()) && j < size / 2; ++j)
       inds[first + j].program = seeds_[j];
     first += size;
   }
-  evaluateAll(inds, {}, 0);
+  evaluateAll(inds, {}, 0, base);
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj);
   first = 0;
   for (int k = 0; k < count; ++k) {
-    const int size = islandSize(k);
+    const int size = islandSize(island_first_ + k);
     std::vector<Individual> pool(std::make_move_iterator(inds.begin() + first),
                                  std::make_move_iterator(inds.begin() + first + size));
     survive(islands_[k], pool, size);
@@ -381,14 +420,15 @@ void Search::step() {
   }
   if (done()) return;
   const int g = generation_ + 1;
-  const int n = cfg_.search.population;
+  const int n = localPopulation();
+  const int base = offspringBase();  // offspring keep their global index in every RNG stream
   const int count = static_cast<int>(islands_.size());
   const auto& var = cfg_.search.variation;
   const auto& ic = cfg_.search.islands;
   // Offspring i belongs to island owner[i]; islands own consecutive ranges.
   std::vector<int> owner(n), first(count + 1, 0);
   for (int k = 0; k < count; ++k) {
-    first[k + 1] = first[k] + islandSize(k);
+    first[k + 1] = first[k] + islandSize(island_first_ + k);
     for (int i = first[k]; i < first[k + 1]; ++i) owner[i] = k;
   }
   // A stagnant island starts over: random programs, plus archive members to build on.
@@ -401,7 +441,8 @@ void Search::step() {
   std::vector<Individual> off(n);
 #pragma omp parallel for num_threads(threads_) schedule(static)
   for (int i = 0; i < n; ++i) {
-    Rng rng(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), static_cast<uint64_t>(i), 1));
+    Rng rng(
+        hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), static_cast<uint64_t>(base + i), 1));
     const Island& isl = islands_[owner[i]];
     if (restart[owner[i]]) {
       const int j = i - first[owner[i]];
@@ -428,8 +469,11 @@ void Search::step() {
   }
   std::vector<uint8_t> refine(n, 0);
   Rng pick(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), 0, 2));
-  for (int i = 0; i < n; ++i) refine[i] = pick.chance(cfg_.search.refine.offspring_share);
-  evaluateAll(off, refine, static_cast<uint64_t>(g));
+  for (int i = 0; i < base + n; ++i) {
+    const bool chosen = pick.chance(cfg_.search.refine.offspring_share);
+    if (i >= base) refine[i - base] = chosen;
+  }
+  evaluateAll(off, refine, static_cast<uint64_t>(g), static_cast<uint64_t>(base));
   for (const auto& ind : off) archive_.insert(ind.program, ind.obj, ind.refined);
 
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
@@ -474,7 +518,9 @@ void Search::refineArchive() {
   }
   const int n = static_cast<int>(inds.size());
   uint64_t evals = 0;
-  const uint64_t stream = (static_cast<uint64_t>(generation_) << 20) | 0xA5A5u;
+  // Ranks of an MPI run refine their own archives on streams of their own.
+  const uint64_t stream = ((static_cast<uint64_t>(generation_) << 20) | 0xA5A5u) +
+                          (static_cast<uint64_t>(island_first_) << 44);
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1) reduction(+ : evals)
   for (int i = 0; i < n; ++i)
     refineOne(omp_get_thread_num(), inds[i],
@@ -488,7 +534,7 @@ void Search::refineArchive() {
   for (int k = 0; k < count; ++k) pools[k] = std::move(islands_[k].pop);
   for (size_t j = 0; j < inds.size(); ++j) pools[j % count].push_back(std::move(inds[j]));
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
-  for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(k));
+  for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(island_first_ + k));
 }
 
 void Search::adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,
@@ -499,6 +545,8 @@ void Search::adopt(const std::vector<Program>& programs, int generations, uint64
   archive_ = Archive(cfg_.search.archive);
   for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
   islands_.assign(1, Island{});
+  island_first_ = 0;
+  island_total_ = 1;
   transport_ = std::make_unique<LocalTransport>(1);
   islands_[0].pop = std::move(inds);
   rankIsland(islands_[0]);
@@ -551,11 +599,25 @@ SearchProgress Search::progress() const {
   p.elapsed_s = elapsed();
   const double session = p.elapsed_s - elapsed_before_;
   p.evals_per_s = session > 0 ? static_cast<double>(session_evals_) / session : 0;
-  const auto& members = archive_.members();
+  summarizeArchive(p, archive_.members(), cfg_.output.progress_cost_levels);
+  p.stop_reason = stopReason();
+  p.finished = !p.stop_reason.empty();
+  p.islands = std::max<int>(1, static_cast<int>(islands_.size()));
+  p.migrants = migrants_before_ + (transport_ ? transport_->sent() : 0);
+  p.remote_migrants = remote_migrants_before_ + (transport_ ? transport_->sentRemote() : 0);
+  p.restarts = restarts_;
+  p.ranks = ranks_;
+  p.threads = threads_;
+  return p;
+}
+
+void summarizeArchive(SearchProgress& p, const std::vector<ArchiveMember>& members,
+                      const std::vector<double>& cost_levels) {
   p.front_size = members.size();
   p.best_error = kInf;
   for (const auto& m : members) p.best_error = std::min(p.best_error, m.obj.error);
-  std::vector<double> levels = cfg_.output.progress_cost_levels;
+  std::vector<double> levels = cost_levels;
+  p.best_at_cost.clear();
   if (levels.empty()) {
     std::vector<double> costs;
     for (const auto& m : members) costs.push_back(m.obj.cost);
@@ -573,12 +635,6 @@ SearchProgress Search::progress() const {
       if (m.obj.cost <= c) best = std::min(best, m.obj.error);
     p.best_at_cost.emplace_back(c, best);
   }
-  p.stop_reason = stopReason();
-  p.finished = !p.stop_reason.empty();
-  p.islands = std::max<int>(1, static_cast<int>(islands_.size()));
-  p.migrants = migrants_before_ + (transport_ ? transport_->sent() : 0);
-  p.restarts = restarts_;
-  return p;
 }
 
 std::vector<FrontEntry> Search::front() const {
@@ -673,6 +729,7 @@ Expected<Program> fitToShape(const Program& p, const ProgramShape& shape) {
 std::string Search::configDigest() const {
   nlohmann::json c = toJson(cfg_);
   c.erase("output");  // where results go does not change the search
+  c.erase("mpi");     // nor how ranks exchange migrants: a checkpoint resumes either way
   c["search"].erase("threads");
   c["search"].erase("generations");  // budgets may be extended on resume
   c["search"].erase("max_evaluations");
@@ -709,26 +766,55 @@ nlohmann::json Search::checkpoint() const {
   for (const auto& m : archive_.members())
     arch.push_back(
         {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
-  return {{"format", "lgp-checkpoint/2"},
-          {"config_digest", configDigest()},
-          {"initialized", initialized_},
-          {"generation", generation_},
-          {"evaluations", evaluations_},
-          {"elapsed_s", elapsed()},
-          {"migrants", migrants_before_ + (transport_ ? transport_->sent() : 0)},
-          {"restarts", restarts_},
-          {"islands", islands},
-          {"archive", arch}};
+  const int total = island_total_ > 0 ? island_total_ : static_cast<int>(islands_.size());
+  return {
+      {"format", "lgp-checkpoint/2"},
+      {"config_digest", configDigest()},
+      {"initialized", initialized_},
+      {"generation", generation_},
+      {"evaluations", evaluations_},
+      {"elapsed_s", elapsed()},
+      {"migrants", migrants_before_ + (transport_ ? transport_->sent() : 0)},
+      {"remote_migrants", remote_migrants_before_ + (transport_ ? transport_->sentRemote() : 0)},
+      {"restarts", restarts_},
+      {"ranks", ranks_},
+      {"island_first", island_first_},
+      {"island_total", total},
+      {"islands", islands},
+      {"archive", arch}};
 }
 
-Status Search::restore(const nlohmann::json& st) {
+Status Search::restore(const nlohmann::json& st, bool take_counters) {
   try {
-    if (st.value("format", "") != "lgp-checkpoint/2")
+    if (!st.is_object() || st.value("format", "") != "lgp-checkpoint/2")
       return Status::error("checkpoint: unknown format");
     if (st.at("config_digest").get<std::string>() != configDigest())
       return Status::error("checkpoint: made with a different config or table");
+    const auto& jislands = st.at("islands");
+    const int held = static_cast<int>(jislands.size());
+    const int ck_first = st.value("island_first", 0);
+    const int ck_total = st.value("island_total", held);
+    // Which of the checkpoint's islands this search takes: all of them, or its range.
+    int take_first = 0, take_count = held;
+    if (range_set_) {
+      if (ck_total != island_total_)
+        return Status::error("checkpoint: made with " + std::to_string(ck_total) +
+                             " islands, this run has " + std::to_string(island_total_));
+      take_first = island_first_ - ck_first;
+      take_count = static_cast<int>(islands_.size());
+      if (take_first < 0 || take_first + take_count > held)
+        return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
+                             std::to_string(ck_first + held - 1) + ", not this rank's " +
+                             std::to_string(island_first_) + ".." +
+                             std::to_string(island_first_ + take_count - 1));
+    } else if (ck_first != 0 || ck_total != held) {
+      return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
+                           std::to_string(ck_first + held - 1) + " of " + std::to_string(ck_total) +
+                           " (one rank of an MPI run); resume from the run's combined checkpoint");
+    }
     std::vector<Island> islands;
-    for (const auto& ji : st.at("islands")) {
+    for (int k = take_first; k < take_first + take_count; ++k) {
+      const auto& ji = jislands.at(static_cast<size_t>(k));
       Island isl;
       for (const auto& j : ji.at("population")) {
         auto p = programFromJson(j.at("program"), shape_);
@@ -758,13 +844,19 @@ Status Search::restore(const nlohmann::json& st) {
     if (st.at("initialized").get<bool>() && islands.empty())
       return Status::error("checkpoint: no islands");
     islands_ = std::move(islands);
-    transport_ = std::make_unique<LocalTransport>(static_cast<int>(islands_.size()));
-    migrants_before_ = st.at("migrants").get<uint64_t>();
-    restarts_ = st.at("restarts").get<uint64_t>();
+    if (!range_set_) {
+      island_first_ = 0;
+      island_total_ = held;
+    }
+    if (!transport_ || dynamic_cast<LocalTransport*>(transport_.get()))
+      transport_ = std::make_unique<LocalTransport>(island_total_);
+    migrants_before_ = take_counters ? st.at("migrants").get<uint64_t>() : 0;
+    remote_migrants_before_ = take_counters ? st.value("remote_migrants", uint64_t{0}) : 0;
+    restarts_ = take_counters ? st.at("restarts").get<uint64_t>() : 0;
     archive_ = std::move(arch);
     initialized_ = st.at("initialized").get<bool>();
     generation_ = st.at("generation").get<int>();
-    evaluations_ = st.at("evaluations").get<uint64_t>();
+    evaluations_ = take_counters ? st.at("evaluations").get<uint64_t>() : 0;
     elapsed_before_ = st.at("elapsed_s").get<double>();
     start_ = std::chrono::steady_clock::now();
     session_evals_ = 0;
@@ -772,6 +864,69 @@ Status Search::restore(const nlohmann::json& st) {
     return Status::error(std::string("checkpoint: ") + e.what());
   }
   return Status::ok();
+}
+
+Expected<nlohmann::json> Search::combineCheckpoints(const RunConfig& cfg, const ProgramShape& shape,
+                                                    const std::vector<nlohmann::json>& parts) {
+  if (parts.empty()) return Status::error("checkpoint: no parts to combine");
+  try {
+    nlohmann::json out = parts[0];
+    out.erase("parts");
+    nlohmann::json islands = nlohmann::json::array();
+    Archive arch(cfg.search.archive);
+    uint64_t evaluations = 0, migrants = 0, remote = 0, restarts = 0;
+    int generation = std::numeric_limits<int>::max();
+    double elapsed = 0;
+    bool initialized = true;
+    int next_island = 0;
+    const int total = parts[0].at("island_total").get<int>();
+    for (const auto& part : parts) {
+      if (part.at("config_digest") != parts[0].at("config_digest"))
+        return Status::error("checkpoint: parts were made with different configs");
+      if (part.at("island_first").get<int>() != next_island ||
+          part.at("island_total").get<int>() != total)
+        return Status::error("checkpoint: parts do not cover the islands in order");
+      for (const auto& isl : part.at("islands")) islands.push_back(isl);
+      next_island += static_cast<int>(part.at("islands").size());
+      for (const auto& j : part.at("archive")) {
+        auto p = programFromJson(j.at("program"), shape);
+        if (!p) return Status::error("checkpoint: archive: " + p.error());
+        auto o = objFromJson(j.at("obj"));
+        if (!o) return Status::error("checkpoint: archive: " + o.error());
+        arch.insert(*p, *o, j.value("refined", false));
+      }
+      evaluations += part.at("evaluations").get<uint64_t>();
+      migrants += part.at("migrants").get<uint64_t>();
+      remote += part.value("remote_migrants", uint64_t{0});
+      restarts += part.at("restarts").get<uint64_t>();
+      generation = std::min(generation, part.at("generation").get<int>());
+      elapsed = std::max(elapsed, part.at("elapsed_s").get<double>());
+      initialized = initialized && part.at("initialized").get<bool>();
+    }
+    if (next_island != total)
+      return Status::error("checkpoint: parts hold " + std::to_string(next_island) + " of " +
+                           std::to_string(total) + " islands");
+    nlohmann::json jarch = nlohmann::json::array();
+    for (const auto& m : arch.members())
+      jarch.push_back(
+          {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
+    out["islands"] = std::move(islands);
+    out["archive"] = std::move(jarch);
+    out["island_first"] = 0;
+    out["island_total"] = total;
+    out["ranks"] = static_cast<int>(parts.size());
+    out["evaluations"] = evaluations;
+    out["migrants"] = migrants;
+    out["remote_migrants"] = remote;
+    out["restarts"] = restarts;
+    out["generation"] = generation;
+    out["elapsed_s"] = elapsed;
+    out["initialized"] = initialized;
+    out["parts"] = parts;
+    return out;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(std::string("checkpoint: ") + e.what());
+  }
 }
 
 }  // namespace lgp

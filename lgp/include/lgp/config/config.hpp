@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -157,6 +158,20 @@ struct OutputConfig {
   std::string front_csv = "front.csv";       // empty = not written
   double progress_interval_s = 1.0;          // progress line period; 0 = every generation
   std::vector<double> progress_cost_levels;  // best error at cost <= c; empty = automatic
+  std::string checkpoint;                    // `lgp run` checkpoint file; empty = none
+  double checkpoint_interval_s = 60;         // seconds between checkpoints (and one at the end)
+};
+
+// How islands on different MPI ranks exchange migrants (lgp/search/mpi_driver.hpp).
+enum class MigrationMode : uint8_t {
+  Async,  // non-blocking: a rank takes what has arrived; a slow rank never stalls the others
+  Sync    // every rank waits for its neighbours' migrants each round: reproducible fronts
+};
+
+// Runs over MPI (`mpirun -np N lgp run cfg.json`). Ignored by a run without a launcher.
+struct MpiConfig {
+  int np = 0;  // ranks lgpd launches for this run; 0 = run in-process (lgp run ignores it)
+  MigrationMode migration = MigrationMode::Async;
 };
 
 struct RunConfig {
@@ -166,6 +181,7 @@ struct RunConfig {
   SearchConfig search;
   EvalConfig eval;
   OutputConfig output;
+  MpiConfig mpi;
   nlohmann::json references = nlohmann::json::array();  // formulas to score beside the front
   std::filesystem::path base_dir;  // directory of the config file (for relative data paths)
 
@@ -182,11 +198,15 @@ std::vector<Op> defaultOps();
 
 std::string_view toString(RefineMethod m);
 std::string_view toString(MultiOutputMode m);
+std::string_view toString(MigrationMode m);
 
 // Parses and validates. Errors name the JSON path, e.g.
 // "/search/population: must be an integer >= 4 (got 2)" or "/search/popsize: unknown key".
 Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesystem::path& base_dir);
 Expected<RunConfig> loadRunConfig(const std::filesystem::path& path);
+// The same for a config's text read elsewhere (e.g. by MPI rank 0); `path` names it in errors
+// and gives the directory relative data paths start from.
+Expected<RunConfig> parseRunConfigText(const std::string& text, const std::filesystem::path& path);
 nlohmann::json toJson(const RunConfig& c);
 
 }  // namespace lgp

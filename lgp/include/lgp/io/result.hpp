@@ -37,6 +37,16 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
 Status writeFrontJson(const nlohmann::json& front, const std::filesystem::path& path);
 Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& path);
 
+// Writes `j` to `path` through a temporary file, flushed to disk and renamed, so a crash
+// leaves the old file or the new one, never a half-written one. indent < 0 = compact.
+Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& path, int indent);
+// A search checkpoint file (`lgp run --checkpoint`): written atomically, read back with the
+// file named in every error.
+Status writeCheckpointFile(const nlohmann::json& state, const std::filesystem::path& path);
+Expected<nlohmann::json> readCheckpointFile(const std::filesystem::path& path);
+// The `lgp run --status` file: the progress counters as JSON (format lgp-status/1).
+nlohmann::json progressToJson(const SearchProgress& p);
+
 // Reads and checks a front.json; the error names the file and the bad field.
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path);
 // A member's program, decoded against the shape recorded in the front.

@@ -36,6 +36,8 @@ class MigrationTransport {
   virtual std::vector<Migrant> receive(int to) = 0;
   // Migrants sent since construction (for progress reports).
   virtual uint64_t sent() const = 0;
+  // Of those, migrants sent to an island in another process.
+  virtual uint64_t sentRemote() const { return 0; }
 };
 
 // In-process transport: one queue per island.

@@ -59,11 +59,19 @@ struct SearchProgress {
   double best_error = 0;                                // lowest finite error in the archive
   std::vector<std::pair<double, double>> best_at_cost;  // (cost level, best error at <= level)
   bool finished = false;
-  std::string stop_reason;  // "generations", "evaluations", "wall_time", "stopped"
-  int islands = 1;          // islands in use
-  uint64_t migrants = 0;    // members sent between islands so far
-  uint64_t restarts = 0;    // island restarts after stagnation so far
+  std::string stop_reason;       // "generations", "evaluations", "wall_time", "stopped"
+  int islands = 1;               // islands in use
+  uint64_t migrants = 0;         // members sent between islands so far
+  uint64_t restarts = 0;         // island restarts after stagnation so far
+  int ranks = 1;                 // MPI ranks the islands are spread over (1 = one process)
+  int threads = 1;               // OpenMP threads (per rank)
+  uint64_t remote_migrants = 0;  // of `migrants`, those sent to an island on another rank
 };
+
+// Fills front_size, best_error and best_at_cost of `p` from archive members (levels empty =
+// four automatic levels spread over the members' costs).
+void summarizeArchive(SearchProgress& p, const std::vector<ArchiveMember>& members,
+                      const std::vector<double>& levels);
 
 // A front member with everything the outputs need.
 struct FrontEntry {
@@ -83,6 +91,19 @@ class Search {
   ~Search();
   Search(const Search&) = delete;
   Search& operator=(const Search&) = delete;
+
+  // The number of islands a config asks for, as the search uses it (at most population / 4).
+  static int islandCount(const RunConfig& cfg);
+  // Runs only islands [first, first + count) of a search of `total` islands (one MPI rank's
+  // share); offspring and RNG streams keep their global indices. Before initialize()/restore().
+  void setIslandRange(int first, int count, int total);
+  // Replaces the in-process transport (e.g. by MPI). Before initialize()/restore().
+  void setTransport(std::unique_ptr<MigrationTransport> transport);
+  // Ranks this search is part of, for progress(); set by the MPI driver.
+  void setRanks(int ranks) { ranks_ = ranks; }
+  // The stop reason progress() reports from now on; the search is done (used for the
+  // assembled result of a distributed run).
+  void setStopReason(const std::string& reason) { adopted_stop_ = reason; }
 
   // Programs to start from (e.g. parsed published formulas), before initialize(): each is
   // fitted to the run's shape (fitToShape) and replaces one random initial program. Programs
@@ -106,11 +127,27 @@ class Search {
   SearchProgress progress() const;
   // The archive's non-dominated members, sorted by cost then error, with full metrics.
   std::vector<FrontEntry> front() const;
+  // The archive as it stands (unsorted, programs as searched).
+  const std::vector<ArchiveMember>& archiveMembers() const { return archive_.members(); }
 
   // Full state (config digest, population, archive, counters). restore() rejects a checkpoint
   // from a different config or table.
+  // With an island range set, the checkpoint holds this range's islands and the local
+  // archive ("island_first", "island_total" say which).
   nlohmann::json checkpoint() const;
-  Status restore(const nlohmann::json& state);
+  // A checkpoint of the whole search, or of exactly this search's island range. With an
+  // island range set, a whole-search checkpoint gives this range's islands and the whole
+  // archive; take_counters = false starts the evaluation, migrant and restart counters at 0
+  // (so that the ranks of a redistributed run do not count them N times).
+  Status restore(const nlohmann::json& state, bool take_counters = true);
+  // One whole-search checkpoint from the checkpoints of disjoint island ranges covering every
+  // island (the ranks of an MPI run, in rank order): islands in order, archives merged in
+  // order (so the result is deterministic), counters summed, the lowest generation, the
+  // longest elapsed time. The parts are kept under "parts" so that a resume on as many ranks
+  // restores each rank exactly.
+  static Expected<nlohmann::json> combineCheckpoints(const RunConfig& cfg,
+                                                     const ProgramShape& shape,
+                                                     const std::vector<nlohmann::json>& parts);
 
   const RunConfig& config() const { return cfg_; }
   const Table& table() const { return table_; }
@@ -131,8 +168,9 @@ class Search {
     double best = std::numeric_limits<double>::infinity();  // lowest error seen here
     int stagnant = 0;  // generations since `best` last improved
   };
+  // Individual i draws its refinement stream from global index index_base + i.
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
-                   uint64_t stream);
+                   uint64_t stream, uint64_t index_base = 0);
   Objectives score(Scorer& s, const Program& p) const;
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
   void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full);
@@ -140,7 +178,9 @@ class Search {
   static void survive(Island& isl, std::vector<Individual>& pool, int keep);
   static void rankIsland(Island& isl);
   int tournament(const Island& isl, Rng& rng) const;
-  int islandSize(int k) const;  // population share of island k
+  int islandSize(int k) const;  // population share of global island k
+  int localPopulation() const;  // offspring per generation of this search's islands
+  int offspringBase() const;    // global index of this search's first offspring
   void migrate(int generation);
   void refineArchive();
   double elapsed() const;
@@ -165,6 +205,11 @@ class Search {
   std::vector<std::unique_ptr<ConstantFitter>> fitters_;
   std::vector<Island> islands_;
   std::unique_ptr<MigrationTransport> transport_;
+  int island_first_ = 0;  // global index of islands_[0]
+  int island_total_ = 0;  // islands of the whole search; 0 = not yet known (all are local)
+  bool range_set_ = false;
+  int ranks_ = 1;
+  uint64_t remote_migrants_before_ = 0;
   uint64_t restarts_ = 0;
   uint64_t migrants_before_ = 0;  // migrants of earlier sessions (restored checkpoints)
   Archive archive_;
