@@ -5,6 +5,9 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <string>
 
 namespace lgp::bench {
 
@@ -22,6 +25,26 @@ inline const char* optionValue(int argc, char** argv, int& i) {
     std::exit(2);
   }
   return argv[++i];
+}
+
+// The CPU model from /proc/cpuinfo (benchmarks print it: machines differ between runs).
+inline std::string cpuModel() {
+  std::ifstream f("/proc/cpuinfo");
+  for (std::string line; std::getline(f, line);)
+    if (line.rfind("model name", 0) == 0) {
+      const auto c = line.find(':');
+      if (c != std::string::npos) return line.substr(line.find_first_not_of(" \t", c + 1));
+    }
+  return "unknown";
+}
+
+inline std::string utcNow() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char b[32];
+  std::strftime(b, sizeof(b), "%Y-%m-%d %H:%M UTC", &tm);
+  return b;
 }
 
 }  // namespace lgp::bench

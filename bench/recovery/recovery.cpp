@@ -25,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/search/search.hpp"
@@ -33,6 +34,8 @@
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using lgp::bench::cpuModel;
+using lgp::bench::utcNow;
 using recovery::Problem;
 
 namespace {
@@ -269,25 +272,6 @@ json toJson(const Run& r) {
   }
   if (!r.error.empty()) j["error"] = r.error;
   return j;
-}
-
-std::string cpuModel() {
-  std::ifstream f("/proc/cpuinfo");
-  for (std::string line; std::getline(f, line);)
-    if (line.rfind("model name", 0) == 0) {
-      const auto c = line.find(':');
-      if (c != std::string::npos) return line.substr(line.find_first_not_of(" \t", c + 1));
-    }
-  return "unknown";
-}
-
-std::string utcNow() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char b[32];
-  std::strftime(b, sizeof(b), "%Y-%m-%d %H:%M UTC", &tm);
-  return b;
 }
 
 json metaJson(const Options& o, const std::vector<std::string>& engines) {

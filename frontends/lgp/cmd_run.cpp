@@ -199,6 +199,7 @@ int runMain(int argc, char** argv) {
   std::signal(SIGUSR1, onSigint);
   int current_step = 0;
   bool status_failed = false;
+  nlohmann::json mpi_stats;  // rank 0 of an MPI run: time in MPI calls per rank
   auto progress = [&](const lgp::SearchProgress& p) {
     if (!status_path.empty() && root) {
       auto st = lgp::writeJsonAtomic(lgp::progressToJson(p), status_path, 2);
@@ -275,7 +276,8 @@ int runMain(int argc, char** argv) {
     auto result = lgp::mpi::runDistributed(*cfg, *table, std::move(opt));
     if (!result) return fail(result.error(), 2);
     if (!root) return g_interrupts.load() > 0 ? 130 : 0;
-    single = std::move(*result);
+    single = std::move(result->search);
+    mpi_stats = std::move(result->stats);
     if (!quiet && tty) std::fprintf(stderr, "\n");
 #endif
   }
@@ -285,6 +287,7 @@ int runMain(int argc, char** argv) {
 
   const auto front = search.front();
   auto j = lgp::frontToJson(search, front);
+  if (!mpi_stats.is_null()) j["progress"]["mpi"] = mpi_stats;
 #ifdef LGP_HAVE_EMIT
   if (!cfg->references.empty())
     j["references"] = lgp::emit::scoreReferences(search.config(), search.table());

@@ -51,6 +51,19 @@ Objectives objFromJson(const json& j) {
   return o;
 }
 
+// Adds the wall time of its scope to a counter (time spent in MPI calls).
+class Busy {
+ public:
+  explicit Busy(double& total) : total_(total), start_(Clock::now()) {}
+  ~Busy() { total_ += seconds(Clock::now() - start_); }
+  Busy(const Busy&) = delete;
+  Busy& operator=(const Busy&) = delete;
+
+ private:
+  double& total_;
+  Clock::time_point start_;
+};
+
 // Point-to-point traffic with per-peer counts, so that the end of a run can receive every
 // message still in flight before MPI_Finalize (see drain()). Sends are non-blocking; their
 // buffers live until MPI reports them complete.
@@ -74,17 +87,22 @@ class Comm {
   int size() const { return size_; }
   MPI_Comm handle() const { return comm_; }
 
-  void send(int dst, int tag, const json& body) {
+  // Returns the message's size in bytes.
+  size_t send(int dst, int tag, const json& body) {
+    Busy b(busy_s_);
     pending_.push_back({MPI_REQUEST_NULL, json::to_msgpack(body)});
     auto& p = pending_.back();
     MPI_Isend(p.bytes.data(), static_cast<int>(p.bytes.size()), MPI_BYTE, dst, tag, comm_,
               &p.request);
     ++sent_[dst];
-    reap();
+    bytes_sent_ += p.bytes.size();
+    reapNow();
+    return p.bytes.size();
   }
 
   // The next message with this tag from any rank, if one has arrived.
   std::optional<Message> poll(int tag) {
+    Busy b(busy_s_);
     int flag = 0;
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, tag, comm_, &flag, &st);
@@ -94,6 +112,7 @@ class Comm {
 
   // Waits for the next message with this tag from `src` (any tag: MPI_ANY_TAG).
   Message wait(int src, int tag) {
+    Busy b(busy_s_);
     MPI_Status st;
     MPI_Probe(src, tag, comm_, &st);
     return receive(st);
@@ -101,6 +120,25 @@ class Comm {
 
   // Frees the buffers of completed sends.
   void reap() {
+    Busy b(busy_s_);
+    reapNow();
+  }
+
+  // One collective of the per-generation agreement (sync mode).
+  void allreduceSum(const uint64_t* in, uint64_t* out, int n) {
+    Busy b(busy_s_);
+    MPI_Allreduce(in, out, n, MPI_UINT64_T, MPI_SUM, comm_);
+  }
+
+  double busySeconds() const { return busy_s_; }
+  uint64_t messagesSent() const {
+    uint64_t n = 0;
+    for (uint64_t c : sent_) n += c;
+    return n;
+  }
+  uint64_t bytesSent() const { return bytes_sent_; }
+
+  void reapNow() {
     for (auto it = pending_.begin(); it != pending_.end();) {
       int done = 0;
       MPI_Test(&it->request, &done, MPI_STATUS_IGNORE);
@@ -112,6 +150,7 @@ class Comm {
   // it was sent, receives the ones not yet taken (handing each to `handle`), and completes
   // every send. Afterwards nothing is in flight.
   void drain(const std::function<void(Message&)>& handle) {
+    Busy b(busy_s_);
     std::vector<uint64_t> expected(size_, 0);
     MPI_Alltoall(sent_.data(), 1, MPI_UINT64_T, expected.data(), 1, MPI_UINT64_T, comm_);
     for (int src = 0; src < size_; ++src)
@@ -171,6 +210,8 @@ class Comm {
   int rank_ = 0, size_ = 1;
   std::vector<uint64_t> sent_, received_;
   std::list<Pending> pending_;
+  double busy_s_ = 0;
+  uint64_t bytes_sent_ = 0;
 };
 
 // Migration over MPI: batches for islands on this rank stay in memory, the others become one
@@ -196,7 +237,8 @@ class MpiTransport final : public MigrationTransport {
     remote_ += migrants.size();
     json m = json::array();
     for (const auto& g : migrants) m.push_back({toJson(g.program), objToJson(g.obj)});
-    comm_.send(owner_[to], kMigrants, {{"to", to}, {"m", std::move(m)}});
+    batch_bytes_ += comm_.send(owner_[to], kMigrants, {{"to", to}, {"m", std::move(m)}});
+    ++batches_;
   }
 
   std::vector<Migrant> receive(int to) override {
@@ -230,6 +272,8 @@ class MpiTransport final : public MigrationTransport {
 
   uint64_t sent() const override { return sent_; }
   uint64_t sentRemote() const override { return remote_; }
+  uint64_t batches() const { return batches_; }
+  uint64_t batchBytes() const { return batch_bytes_; }
 
  private:
   Comm& comm_;
@@ -238,7 +282,7 @@ class MpiTransport final : public MigrationTransport {
   ProgramShape shape_;
   std::vector<std::vector<Migrant>> inbox_;
   std::vector<uint8_t> arrived_;  // sync: this round's batch is in the inbox
-  uint64_t sent_ = 0, remote_ = 0;
+  uint64_t sent_ = 0, remote_ = 0, batches_ = 0, batch_bytes_ = 0;
 };
 
 // What rank 0 knows of another rank between reports.
@@ -321,8 +365,9 @@ Expected<Table> shareTable(const Expected<Table>& on_rank0) {
   return t;
 }
 
-Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& table,
-                                                 DistributedOptions opt) {
+Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
+                                           DistributedOptions opt) {
+  const auto started = Clock::now();
   Comm comm;
   const int rank = comm.rank(), ranks = comm.size();
   const bool sync = cfg.mpi.migration == MigrationMode::Sync;
@@ -408,7 +453,7 @@ Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& tab
   // Rank 0's view of the others.
   std::vector<Report> reports(ranks);
   std::map<int, std::vector<json>> parts;  // checkpoint round -> state per rank
-  std::vector<json> finals(ranks);
+  std::vector<json> finals(ranks), stats(ranks);
   std::vector<std::string> own_reasons(ranks);  // why each rank stopped on its own ("" = told)
   std::string global_reason;                    // set when rank 0 stops everyone
   bool told_to_stop = false, stop_sent = false;
@@ -456,6 +501,7 @@ Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& tab
       }
       case kFinal:
         finals[m.source] = std::move(m.body.at("state"));
+        stats[m.source] = std::move(m.body.at("stats"));
         own_reasons[m.source] = m.body.at("reason").get<std::string>();
         break;
       default:
@@ -503,7 +549,7 @@ Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& tab
                        seconds(Clock::now() - last_checkpoint) >= opt.checkpoint_interval_s;
       uint64_t in[3] = {done ? 1u : 0u, due ? 1u : 0u, search->progress().evaluations};
       uint64_t out[3] = {0, 0, 0};
-      MPI_Allreduce(in, out, 3, MPI_UINT64_T, MPI_SUM, comm.handle());
+      comm.allreduceSum(in, out, 3);
       if (cfg.search.max_evaluations > 0 && out[2] >= cfg.search.max_evaluations) {
         global_reason = "evaluations";
         stop = true;
@@ -591,14 +637,24 @@ Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& tab
   const std::string own = told_to_stop ? "" : search->progress().stop_reason;
   json state = search->checkpoint();
   if (opt.on_search) opt.on_search(nullptr);
+  // Time in MPI calls up to here (the drain below waits for the slowest rank to finish).
+  json mine = {{"rank", rank},
+               {"generation", search->progress().generation},
+               {"elapsed_s", seconds(Clock::now() - started)},
+               {"comm_s", comm.busySeconds()},
+               {"messages", comm.messagesSent()},
+               {"bytes", comm.bytesSent()},
+               {"migrant_batches", mig->batches()},
+               {"migrant_bytes", mig->batchBytes()}};
   if (rank == 0) {
     finals[0] = std::move(state);
     own_reasons[0] = own;
+    stats[0] = std::move(mine);
   } else {
-    comm.send(0, kFinal, {{"state", std::move(state)}, {"reason", own}});
+    comm.send(0, kFinal, {{"state", std::move(state)}, {"reason", own}, {"stats", mine}});
   }
   comm.drain(handle);
-  if (rank != 0) return std::unique_ptr<Search>();
+  if (rank != 0) return DistributedResult{};
 
   for (int r = 0; r < ranks; ++r)
     if (finals[r].is_null())
@@ -612,16 +668,26 @@ Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& tab
   std::string reason = global_reason;
   for (int r = 0; r < ranks && reason.empty(); ++r) reason = own_reasons[r];
   if (reason.empty()) reason = "stopped";
-  auto result = std::make_unique<Search>(cfg, table);
+  DistributedResult out;
+  out.search = std::make_unique<Search>(cfg, table);
+  auto& result = out.search;
   if (auto s = result->restore(*combined); !s) return s;
   result->setRanks(ranks);
   result->setStopReason(reason);
+  double comm_s = 0, elapsed_s = 0;
+  for (const auto& st : stats) {
+    comm_s += st.value("comm_s", 0.0);
+    elapsed_s += st.value("elapsed_s", 0.0);
+  }
+  out.stats = {{"migration", std::string(toString(cfg.mpi.migration))},
+               {"comm_share", elapsed_s > 0 ? comm_s / elapsed_s : 0.0},
+               {"ranks", stats}};
   if (opt.on_progress) {
     SearchProgress p = result->progress();
     p.evals_per_s = p.elapsed_s > 0 ? static_cast<double>(p.evaluations) / p.elapsed_s : 0;
     opt.on_progress(p);
   }
-  return result;
+  return out;
 }
 
 }  // namespace lgp::mpi

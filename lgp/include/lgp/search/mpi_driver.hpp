@@ -98,11 +98,19 @@ Expected<std::string> shareBytes(const Expected<std::string>& on_rank0);
 // and the data file need only be readable where rank 0 runs.
 Expected<Table> shareTable(const Expected<Table>& on_rank0);
 
-// Runs one search over every rank of MPI_COMM_WORLD; every rank calls it. Rank 0 gets the
-// assembled search (every island, the merged archive, counters summed over ranks; done, with
-// the run's stop reason) for front() and the front files; the other ranks get nullptr. An
-// error on any rank before the search starts is returned on every rank.
-Expected<std::unique_ptr<Search>> runDistributed(RunConfig cfg, const Table& table,
-                                                 DistributedOptions options);
+struct DistributedResult {
+  // Rank 0: the assembled search (every island, the merged archive, counters summed over
+  // ranks; done, with the run's stop reason) for front() and the front files. Else nullptr.
+  std::unique_ptr<Search> search;
+  // Rank 0: per rank its generation, elapsed_s, comm_s (wall time inside MPI calls, waits
+  // for neighbours included), messages and bytes sent (of which migrant batches);
+  // comm_share = sum comm_s / sum elapsed_s.
+  nlohmann::json stats;
+};
+
+// Runs one search over every rank of MPI_COMM_WORLD; every rank calls it. An error on any
+// rank before the search starts is returned on every rank.
+Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
+                                           DistributedOptions options);
 
 }  // namespace lgp::mpi
