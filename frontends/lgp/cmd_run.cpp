@@ -181,13 +181,18 @@ int runMain(int argc, char** argv) {
     stepped = std::make_unique<lgp::TwoStepSearch>(*cfg, std::move(*table));
     g_two_step.store(stepped.get());
   } else if (!distributed) {
-    single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
+    lgp::Expected<nlohmann::json> ck = nlohmann::json();
     if (resume) {
-      auto ck = lgp::readCheckpointFile(cfg->output.checkpoint);
+      ck = lgp::readCheckpointFile(cfg->output.checkpoint);
       if (!ck) return fail(ck.error(), 2);
+      if (lgp::Search::adoptCheckpointIslands(*cfg, *ck) && !quiet)
+        std::fprintf(stderr, "lgp: %d islands, as in the checkpoint\n",
+                     cfg->search.islands.count);
+    }
+    single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
+    if (resume)
       if (auto st = single->restore(*ck); !st)
         return fail(cfg->output.checkpoint + ": " + st.message(), 2);
-    }
     // A reference that does not fit the program shape is reported, not fatal.
     for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
@@ -272,7 +277,10 @@ int runMain(int argc, char** argv) {
     opt.on_warning = [&](const std::string& w) {
       std::fprintf(stderr, "%swarning: %s\n", tty ? "\r\033[K" : "", w.c_str());
     };
-    opt.on_search = [](lgp::Search* s) { g_search.store(s); };
+    opt.on_search = [](lgp::Search* s) {
+      g_search.store(s);
+      if (s && g_interrupts.load() > 0) s->requestStop();  // a signal came during set-up
+    };
     auto result = lgp::mpi::runDistributed(*cfg, *table, std::move(opt));
     if (!result) return fail(result.error(), 2);
     if (!root) return g_interrupts.load() > 0 ? 130 : 0;

@@ -375,6 +375,29 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
     if (rank == 0 && opt.on_warning) opt.on_warning(w);
   };
 
+  // A resume starts from rank 0's file (the other ranks may be on machines that do not see
+  // its file system).
+  json resume_state;
+  if (opt.resume) {
+    std::string bytes;
+    Status read = Status::ok();
+    if (rank == 0) {
+      auto ck = readCheckpointFile(opt.checkpoint_path);
+      if (ck) {
+        const auto v = json::to_msgpack(*ck);
+        bytes.assign(v.begin(), v.end());
+      } else {
+        read = ck.status();
+      }
+    }
+    if (auto s = comm.agree(read); !s) return s;
+    comm.broadcast(bytes, 0);
+    resume_state = json::from_msgpack(bytes);
+    if (Search::adoptCheckpointIslands(cfg, resume_state))
+      warn("search.islands.count: " + std::to_string(cfg.search.islands.count) +
+           " islands, as in the checkpoint");
+  }
+
   // Every rank runs at least one island.
   int total = Search::islandCount(cfg);
   Status setup = Status::ok();
@@ -410,25 +433,11 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
   MpiTransport* mig = transport.get();
   search->setTransport(std::move(transport));
 
-  // Start: from the checkpoint (rank 0 reads it: the other ranks may be on machines that do
-  // not see its file system), or from random programs plus seeds.
+  // Start: from the checkpoint, or from random programs plus seeds.
   Status start = Status::ok();
   if (opt.resume) {
-    std::string bytes;
-    Status read = Status::ok();
-    if (rank == 0) {
-      auto ck = readCheckpointFile(opt.checkpoint_path);
-      if (ck) {
-        const auto v = json::to_msgpack(*ck);
-        bytes.assign(v.begin(), v.end());
-      } else {
-        read = ck.status();
-      }
-    }
-    if (auto s = comm.agree(read); !s) return s;
-    comm.broadcast(bytes, 0);
     try {
-      const json ck = json::from_msgpack(bytes);
+      const json& ck = resume_state;
       const auto& parts = ck.value("parts", json::array());
       if (static_cast<int>(parts.size()) == ranks && ck.value("island_total", 0) == total &&
           parts[rank].value("island_first", -1) == first) {
@@ -588,6 +597,8 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
             seconds(Clock::now() - last_checkpoint) >= opt.checkpoint_interval_s) {
           wanted_seq = ++checkpoint_seq;
           for (int r = 1; r < ranks; ++r) comm.send(r, kControl, {{"checkpoint", wanted_seq}});
+          // A rank that has finished never answers: keep only the last few open rounds.
+          parts.erase(parts.begin(), parts.lower_bound(wanted_seq - 2));
         }
       }
       stop = search->done();

@@ -284,6 +284,15 @@ int Search::islandCount(const RunConfig& cfg) {
   return std::clamp(cfg.search.islands.count, 1, std::max(1, cfg.search.population / 4));
 }
 
+bool Search::adoptCheckpointIslands(RunConfig& cfg, const nlohmann::json& ck) {
+  if (!ck.is_object() || !ck.contains("island_total") || !ck["island_total"].is_number_integer())
+    return false;
+  const int total = ck["island_total"].get<int>();
+  if (total <= islandCount(cfg) || total > std::max(1, cfg.search.population / 4)) return false;
+  cfg.search.islands.count = total;
+  return true;
+}
+
 void Search::setIslandRange(int first, int count, int total) {
   island_first_ = first;
   island_total_ = total;

@@ -94,6 +94,9 @@ class Search {
 
   // The number of islands a config asks for, as the search uses it (at most population / 4).
   static int islandCount(const RunConfig& cfg);
+  // An MPI run raises the island count to its rank count; a resume (on other ranks, or in one
+  // process) takes that count from the checkpoint when the config's is smaller. True if it did.
+  static bool adoptCheckpointIslands(RunConfig& cfg, const nlohmann::json& checkpoint);
   // Runs only islands [first, first + count) of a search of `total` islands (one MPI rank's
   // share); offspring and RNG streams keep their global indices. Before initialize()/restore().
   void setIslandRange(int first, int count, int total);
