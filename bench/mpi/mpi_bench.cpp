@@ -113,6 +113,7 @@ Run launch(const std::vector<std::string>& args, const fs::path& log) {
   rusage before{}, after{};
   getrusage(RUSAGE_CHILDREN, &before);
   const auto t0 = Clock::now();
+  std::fflush(nullptr);  // else the child's stdio would write the parent's buffers again
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> argv;

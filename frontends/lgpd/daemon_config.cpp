@@ -2,6 +2,8 @@
 
 #include <arpa/inet.h>
 
+#include <algorithm>
+#include <cstring>
 #include <string_view>
 
 namespace lgpd {
@@ -20,6 +22,10 @@ Status DaemonConfig::validate() const {
   if (max_body_bytes < 1024) return Status::error("/max_body_bytes: must be >= 1024");
   if (http_threads < 2 || http_threads > 256)
     return Status::error("/http_threads: must be in [2, 256]");
+  if (mpi.launcher.empty()) return Status::error("/mpi/launcher: must be a non-empty string");
+  if (mpi.max_np < 1 || mpi.max_np > 4096)
+    return Status::error("/mpi/max_np: must be in [1, 4096]");
+  if (!(mpi.stop_grace_s > 0)) return Status::error("/mpi/stop_grace_s: must be a number > 0");
   auto addr = parseListen(listen);
   if (!addr) return Status::error("/listen: " + addr.error());
   if (!isLoopbackHost(addr->host) && token.size() < 16)
@@ -91,6 +97,54 @@ Status string(const nlohmann::json& v, const std::string& path, std::string& out
   return Status::ok();
 }
 
+Status stringArray(const nlohmann::json& v, const std::string& path,
+                   std::vector<std::string>& out) {
+  if (!v.is_array()) return Status::error(path + ": must be an array of strings");
+  out.clear();
+  for (size_t n = 0; n < v.size(); ++n) {
+    if (!v[n].is_string())
+      return Status::error(path + "/" + std::to_string(n) + ": must be a string");
+    out.push_back(v[n].get<std::string>());
+  }
+  return Status::ok();
+}
+
+Status applyMpiJson(const nlohmann::json& j, const std::string& path, MpiDaemonConfig& m) {
+  if (!j.is_object()) return Status::error(path + ": must be an object");
+  static constexpr std::string_view kKeys[] = {"launcher", "hostfile", "args",
+                                               "max_np",   "lgp",      "stop_grace_s"};
+  for (const auto& [k, v] : j.items()) {
+    bool known = false;
+    for (auto kk : kKeys) known = known || kk == k;
+    if (!known) return Status::error(path + "/" + k + ": unknown key");
+  }
+  auto sub = [&](const char* key) { return path + "/" + key; };
+  std::string str;
+  int64_t i = 0;
+  if (auto it = j.find("launcher"); it != j.end()) {
+    if (!it->is_string() || it->get<std::string>().empty())
+      return Status::error(sub("launcher") + ": must be a non-empty string");
+    m.launcher = it->get<std::string>();
+  }
+  if (auto it = j.find("hostfile"); it != j.end()) {
+    if (auto s = string(*it, sub("hostfile"), str); !s) return s;
+    m.hostfile = str;
+  }
+  if (auto it = j.find("args"); it != j.end())
+    if (auto s = stringArray(*it, sub("args"), m.args); !s) return s;
+  if (auto it = j.find("max_np"); it != j.end()) {
+    if (auto s = integer(*it, sub("max_np"), 1, i); !s) return s;
+    m.max_np = static_cast<int>(std::min<int64_t>(i, 1 << 20));
+  }
+  if (auto it = j.find("lgp"); it != j.end()) {
+    if (auto s = string(*it, sub("lgp"), str); !s) return s;
+    m.lgp = str;
+  }
+  if (auto it = j.find("stop_grace_s"); it != j.end())
+    if (auto s = number(*it, sub("stop_grace_s"), m.stop_grace_s); !s) return s;
+  return Status::ok();
+}
+
 }  // namespace
 
 Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
@@ -105,7 +159,8 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
                                                "max_body_bytes",
                                                "data_base_dir",
                                                "allowed_data_dirs",
-                                               "http_threads"};
+                                               "http_threads",
+                                               "mpi"};
   for (const auto& [k, v] : j.items()) {
     bool known = false;
     for (auto kk : kKeys) known = known || kk == k;
@@ -151,14 +206,10 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
         })))
     return s;
   if (!(s = field(j, "allowed_data_dirs", [&](auto& v, auto p) {
-          if (!v.is_array()) return Status::error(p + ": must be an array of strings");
-          cfg.allowed_data_dirs.clear();
-          for (size_t n = 0; n < v.size(); ++n) {
-            if (!v[n].is_string())
-              return Status::error(p + "/" + std::to_string(n) + ": must be a string");
-            cfg.allowed_data_dirs.emplace_back(v[n].template get<std::string>());
-          }
-          return Status::ok();
+          std::vector<std::string> dirs;
+          auto r = stringArray(v, p, dirs);
+          if (r) cfg.allowed_data_dirs.assign(dirs.begin(), dirs.end());
+          return r;
         })))
     return s;
   if (!(s = field(j, "http_threads", [&](auto& v, auto p) {
@@ -166,6 +217,8 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
           if (r) cfg.http_threads = static_cast<int>(std::min<int64_t>(i, 1 << 20));
           return r;
         })))
+    return s;
+  if (!(s = field(j, "mpi", [&](auto& v, auto p) { return applyMpiJson(v, p, cfg.mpi); })))
     return s;
   return Status::ok();
 }

@@ -15,6 +15,17 @@
 
 namespace lgpd {
 
+// How lgpd launches runs whose config asks for MPI (run config "mpi": {"np": N}). Set by the
+// daemon operator only: a request contributes nothing to the command line but np.
+struct MpiDaemonConfig {
+  std::string launcher = "mpirun";  // a name looked up in PATH at startup, or a path
+  std::filesystem::path hostfile;   // passed as --hostfile; empty = none
+  std::vector<std::string> args;    // extra launcher arguments, e.g. {"--oversubscribe"}
+  int max_np = 64;                  // largest mpi.np a submission may ask for
+  std::filesystem::path lgp;        // the lgp binary; empty = next to lgpd, ../lgp/lgp, PATH
+  double stop_grace_s = 30;         // cancel/shutdown: SIGUSR1, then SIGTERM after this long
+};
+
 struct DaemonConfig {
   std::filesystem::path data_dir;         // SQLite database and materialised inline tables
   std::string listen = "127.0.0.1:8737";  // host:port; port 0 picks a free port
@@ -28,6 +39,7 @@ struct DaemonConfig {
                                           // empty = lgpd's working directory at start
   std::vector<std::filesystem::path> allowed_data_dirs;  // if set, data files must be inside
   int http_threads = 8;                                  // HTTP worker threads
+  MpiDaemonConfig mpi;
 
   // Checks every field; the message names the JSON key.
   lgp::Status validate() const;

@@ -11,6 +11,10 @@
 #include <fstream>
 #include <limits>
 #include <random>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
@@ -100,6 +104,8 @@ struct JobManager::Job {
 JobManager::JobManager(Store& store, DaemonConfig cfg) : store_(store), cfg_(std::move(cfg)) {
   if (cfg_.data_base_dir.empty()) cfg_.data_base_dir = fs::current_path();
   cfg_.data_base_dir = fs::absolute(cfg_.data_base_dir).lexically_normal();
+  cfg_.data_dir = fs::absolute(cfg_.data_dir).lexically_normal();  // the child runs elsewhere
+  mpi_ = resolveMpiTools(cfg_.mpi);
 }
 
 JobManager::~JobManager() {
@@ -108,6 +114,10 @@ JobManager::~JobManager() {
 
 fs::path JobManager::inlineTablePath(const std::string& id) const {
   return cfg_.data_dir / "tables" / (id + ".json");
+}
+
+fs::path JobManager::mpiWorkDir(const std::string& id) const {
+  return cfg_.data_dir / "mpi" / id;
 }
 
 Status JobManager::checkDataPath(const fs::path& p) const {
@@ -164,6 +174,18 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   }
   auto cfg = lgp::parseRunConfig(j, cfg_.data_base_dir);
   if (!cfg) return cfg.status();
+  if (cfg->mpi.np > 0) {
+    if (cfg->mpi.np > cfg_.mpi.max_np)
+      return Status::error("/mpi/np: must be in [1, " + std::to_string(cfg_.mpi.max_np) +
+                           "] on this lgpd (its mpi.max_np) (got " + std::to_string(cfg->mpi.np) +
+                           ")");
+    if (cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep)
+      return Status::error(
+          "/search/multi_output/mode: two_step runs are not available over MPI; use joint, "
+          "or run without mpi.np");
+    if (!mpi_.usable())
+      return Status::error("/mpi/np: this lgpd cannot launch MPI runs (" + mpi_.unavailable + ")");
+  }
   if (cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep)
     return Status::error(
         "/search/multi_output/mode: two_step runs are not served by lgpd yet "
@@ -251,6 +273,18 @@ Status JobManager::start() {
   if (!running) return running.status();
   std::error_code ec;
   fs::create_directories(cfg_.data_dir / "tables", ec);
+  if (mpi_.usable())
+    spdlog::info("MPI runs: {} with {}{}", mpi_.launcher.string(), mpi_.lgp.string(),
+                 mpi_.hostfile.empty() ? "" : ", hostfile " + mpi_.hostfile.string());
+  else
+    spdlog::info("MPI runs unavailable: {}", mpi_.unavailable);
+  // Work dirs of runs deleted while lgpd was down.
+  for (const auto& e : fs::directory_iterator(cfg_.data_dir / "mpi", ec)) {
+    const std::string name = e.path().filename().string();
+    if (!isValidRunId(name)) continue;
+    auto rec = store_.getRun(name);
+    if (rec && !*rec) fs::remove_all(e.path(), ec);
+  }
   int resumed = 0;
   for (const auto& id : *running) {
     auto rec = store_.getRun(id);
@@ -368,6 +402,11 @@ void JobManager::runJob(Job& job) {
     auto cfg = config(run);
     if (!cfg) return fail(cfg.error());
     if (auto s = resolveInlineTable(run); !s) return fail(s.message());
+    if (cfg->mpi.np > 0) {
+      auto s = runMpiJob(job, run, *cfg);
+      if (!s) return fail(s.message());
+      return finish();
+    }
     auto table = lgp::cli::loadRunTable(*cfg);
     if (!table) return fail(table.error());
 
@@ -420,7 +459,7 @@ void JobManager::runJob(Job& job) {
       auto now = clock::now();
       if (seconds(now - last_ckpt) >= cfg_.checkpoint_interval_s) {
         json front = snapshot();
-        auto s = store_.writeCheckpoint(id, search->checkpoint(), front,
+        auto s = store_.writeCheckpoint(id, search->checkpoint(), &front,
                                         countersOf(search->progress(), best));
         if (!s) spdlog::error("run {}: checkpoint: {}", id, s.message());
         last_ckpt = last_progress = last_front = now;
@@ -445,7 +484,7 @@ void JobManager::runJob(Job& job) {
       // Daemon stopping: keep the run "running" with a fresh checkpoint; the next start
       // resumes it.
       json front = snapshot();
-      auto s = store_.writeCheckpoint(id, search->checkpoint(), front,
+      auto s = store_.writeCheckpoint(id, search->checkpoint(), &front,
                                       countersOf(search->progress(), best));
       if (!s) spdlog::error("run {}: checkpoint at shutdown: {}", id, s.message());
       spdlog::info("run {} checkpointed at generation {} for shutdown", id,
@@ -473,6 +512,290 @@ void JobManager::runJob(Job& job) {
     }
     return fail(std::string("internal error: ") + e.what());
   }
+}
+
+namespace {
+
+// Status file of `lgp run --status` (lgp-status/1) into the counters; other keys are kept.
+void applyStatus(const json& st, RunCounters& c) {
+  try {
+    if (!st.is_object() || st.value("format", "") != "lgp-status/1") return;
+    c.generation = st.value("generation", c.generation);
+    c.evaluations = st.value("evaluations", c.evaluations);
+    c.elapsed_s = st.value("elapsed_s", c.elapsed_s);
+    if (auto it = st.find("evals_per_s"); it != st.end() && it->is_number())
+      c.evals_per_s = it->get<double>();
+    c.front_size = st.value("front_size", c.front_size);
+    if (auto it = st.find("best_error"); it != st.end())
+      c.best_error = it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
+    if (auto it = st.find("stop_reason"); it != st.end() && it->is_string())
+      c.stop_reason = it->get<std::string>();
+  } catch (const json::exception&) {
+    // A status of the wrong shape only costs a progress update.
+  }
+}
+
+bool isCheckpoint(const std::optional<json>& j) {
+  return j && j->is_object() && j->value("format", "") == "lgp-checkpoint/2" &&
+         j->contains("generation") && (*j)["generation"].is_number_integer();
+}
+
+// The counters of a front document: size and bests (the error best becomes best_error).
+void applyFront(const json& front, RunCounters& c) {
+  c.best = bestPerObjective(front);
+  if (auto m = front.find("members"); m != front.end() && m->is_array())
+    c.front_size = static_cast<int64_t>(m->size());
+  if (auto e = c.best.find("error"); e != c.best.end()) c.best_error = (*e)["value"].get<double>();
+}
+
+std::string hintFor(int wait_status) {
+  if (!WIFEXITED(wait_status)) return "";
+  switch (WEXITSTATUS(wait_status)) {
+    case 1:
+      return " (lgp run: I/O error)";
+    case 2:
+      return " (lgp run rejected its config or arguments)";
+    case 126:
+    case 127:
+      return " (the launcher could not be executed)";
+    case 130:
+      return " (lgp run was stopped by a signal that lgpd did not send)";
+    default:
+      return "";
+  }
+}
+
+}  // namespace
+
+Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg) {
+  using clock = std::chrono::steady_clock;
+  const std::string& id = run.id;
+  if (!mpi_.usable())
+    return Status::error("this lgpd cannot launch MPI runs (" + mpi_.unavailable + ")");
+  if (cfg.mpi.np > cfg_.mpi.max_np)
+    return Status::error("/mpi/np: " + std::to_string(cfg.mpi.np) + " exceeds this lgpd's " +
+                         "mpi.max_np (" + std::to_string(cfg_.mpi.max_np) + ")");
+  const MpiWorkDir work{mpiWorkDir(id)};
+  std::error_code ec;
+  fs::create_directories(work.dir, ec);
+  if (ec) return Status::error("cannot create " + work.dir.string() + ": " + ec.message());
+  // Results of an earlier launch must not be taken for this one's.
+  for (const fs::path& p : {work.front(), work.status(), work.pidFile()}) {
+    fs::remove(p, ec);
+    fs::remove(fs::path(p) += ".tmp", ec);
+  }
+
+  // Resume from the newer of the work dir's checkpoint (the launch before a crash may have
+  // written one after the last one lgpd stored) and the store's.
+  std::optional<json> resume_from = readJsonFile(work.checkpoint());
+  if (!isCheckpoint(resume_from)) resume_from.reset();
+  if (auto stored = store_.loadCheckpoint(id); !stored) {
+    spdlog::warn("run {}: {}", id, stored.error());
+  } else if (isCheckpoint(*stored) &&
+             (!resume_from ||
+              (**stored)["generation"].get<int>() > (*resume_from)["generation"].get<int>())) {
+    resume_from = std::move(*stored);
+    if (auto s = writeFileAtomic(work.checkpoint(), resume_from->dump()); !s) return s;
+  }
+  if (!resume_from) fs::remove(work.checkpoint(), ec);
+  const bool resume = resume_from.has_value();
+  const int resume_generation = resume ? (*resume_from)["generation"].get<int>() : 0;
+  resume_from.reset();
+
+  // The config the child reads: the stored one (absolute data paths), with every output path
+  // pointing into the work dir. A request's own output section never reaches the child.
+  json rc = run.config;
+  if (run.inline_table) rc["data"]["path"] = inlineTablePath(id).string();
+  json output = {{"front_json", work.front().string()},
+                 {"front_csv", ""},
+                 {"progress_interval_s", cfg_.progress_interval_s},
+                 {"checkpoint", work.checkpoint().string()},
+                 {"checkpoint_interval_s", cfg_.checkpoint_interval_s}};
+  if (auto o = rc.find("output");
+      o != rc.end() && o->is_object() && o->contains("progress_cost_levels"))
+    output["progress_cost_levels"] = (*o)["progress_cost_levels"];
+  rc["output"] = std::move(output);
+  if (auto s = writeFileAtomic(work.config(), rc.dump(2) + "\n"); !s) return s;
+
+  if (job.deleted.load()) return Status::ok();
+  if (job.cancel.load()) {
+    auto s = store_.finishRun(id, RunStatus::Cancelled, nullptr, run.counters, "");
+    return s;
+  }
+  if (job.shutdown.load()) return Status::ok();
+
+  const auto argv = mpiArgv(mpi_, cfg_.mpi, cfg.mpi.np, work, cfg_.checkpoint_interval_s, resume);
+  std::vector<std::string> env;
+  if (::geteuid() == 0) env = {"OMPI_ALLOW_RUN_AS_ROOT=1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1"};
+  {
+    // The log keeps every launch of the run; a fresh start begins a new one.
+    std::ofstream log(work.log(), resume ? std::ios::app : std::ios::trunc);
+    log << "lgpd: launch at " << static_cast<int64_t>(unixNow()) << ":";
+    for (const auto& a : argv) log << " '" << a << "'";
+    log << "\n";
+  }
+  if (auto s = store_.markStarted(id, resume, resume_generation); !s) return s;
+  auto child = ChildProcess::spawn(argv, env, work.log());
+  if (!child) return Status::error("cannot start " + argv[0] + ": " + child.error());
+  writeFileAtomic(work.pidFile(), std::to_string(child->pid()) + "\n");
+  spdlog::info("run {} {} over MPI: {} -np {} (pid {}){}", id, resume ? "resumed" : "started",
+               argv[0], cfg.mpi.np, child->pid(),
+               resume ? " from generation " + std::to_string(resume_generation) : "");
+
+  RunCounters counters = run.counters;
+  counters.generation = resume_generation;
+  FileVersion seen_status, seen_ckpt = FileVersion::of(work.checkpoint());
+  // A front for the store from each checkpoint, by restoring it into an in-process Search
+  // (built on first use: the daemon then holds the table too).
+  std::unique_ptr<lgp::Search> viewer;
+  bool viewer_failed = false;
+  auto frontOf = [&](const json& state) -> std::optional<json> {
+    if (viewer_failed) return std::nullopt;
+    if (!viewer) {
+      auto table = lgp::cli::loadRunTable(cfg);
+      if (!table) {
+        spdlog::warn("run {}: no live front ({})", id, table.error());
+        viewer_failed = true;
+        return std::nullopt;
+      }
+      // A run over more ranks than its islands raised the count: take it from the state.
+      lgp::RunConfig view_cfg = cfg;
+      lgp::Search::adoptCheckpointIslands(view_cfg, state);
+      viewer = std::make_unique<lgp::Search>(view_cfg, std::move(*table));
+    }
+    if (auto s = viewer->restore(state); !s) {
+      spdlog::warn("run {}: checkpoint kept without a front ({})", id, s.message());
+      viewer_failed = true;  // the same would happen with every later checkpoint
+      return std::nullopt;
+    }
+    return lgp::frontToJson(*viewer, viewer->front());
+  };
+  auto pollStatus = [&] {
+    auto v = FileVersion::of(work.status());
+    if (!v.exists || v == seen_status) return;
+    seen_status = v;
+    auto st = readJsonFile(work.status());
+    if (!st) return;
+    applyStatus(*st, counters);
+    if (auto s = store_.updateProgress(id, counters); !s)
+      spdlog::error("run {}: progress: {}", id, s.message());
+  };
+  auto pollCheckpoint = [&] {
+    auto v = FileVersion::of(work.checkpoint());
+    if (!v.exists || v == seen_ckpt) return;
+    seen_ckpt = v;
+    auto state = readJsonFile(work.checkpoint());
+    if (!isCheckpoint(state)) return;
+    RunCounters c = counters;
+    c.generation = (*state)["generation"].get<int>();
+    c.evaluations = state->value("evaluations", c.evaluations);
+    c.elapsed_s = state->value("elapsed_s", c.elapsed_s);
+    auto front = frontOf(*state);
+    if (front) applyFront(*front, c);
+    if (auto s = store_.writeCheckpoint(id, *state, front ? &*front : nullptr, c); !s)
+      spdlog::error("run {}: checkpoint: {}", id, s.message());
+    else
+      counters.best = c.best;
+  };
+
+  // Wait for the child; a stop request is SIGUSR1 (mpirun forwards it to every rank, which
+  // finish their generation and write the front and a checkpoint), then SIGTERM after the
+  // grace period (mpirun kills the ranks a second later), then SIGKILL to the whole process
+  // group after another min(grace, 10 s).
+  const auto grace = std::chrono::duration<double>(cfg_.mpi.stop_grace_s);
+  const auto kill_after =
+      grace + std::min<std::chrono::duration<double>>(grace, std::chrono::seconds(10));
+  std::optional<clock::time_point> stop_at;
+  int stage = 0;  // signals sent: 1 = USR1, 2 = TERM, 3 = KILL
+  int wait_status = 0;
+  for (;;) {
+    if (auto st = child->poll()) {
+      wait_status = *st;
+      break;
+    }
+    if (job.cancel.load() || job.deleted.load() || job.shutdown.load()) {
+      const auto now = clock::now();
+      if (!stop_at) stop_at = now;
+      if (stage == 0) {
+        child->signal(SIGUSR1);
+        stage = 1;
+      } else if (stage == 1 && now - *stop_at >= grace) {
+        spdlog::warn("run {}: launcher still running {} s after SIGUSR1; sending SIGTERM", id,
+                     cfg_.mpi.stop_grace_s);
+        child->signal(SIGTERM);
+        stage = 2;
+      } else if (stage == 2 && now - *stop_at >= kill_after) {
+        spdlog::warn("run {}: killing the launcher's process group", id);
+        child->signalGroup(SIGKILL);
+        child->signal(SIGKILL);
+        stage = 3;
+      }
+    }
+    if (!job.deleted.load()) {
+      pollStatus();
+      pollCheckpoint();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  // Ranks the launcher left behind in its group (it normally reaps them itself).
+  child->signalGroup(SIGKILL);
+  const std::string how =
+      fs::path(argv[0]).filename().string() + " " + describeWaitStatus(wait_status);
+  spdlog::info("run {}: {}", id, how);
+
+  if (job.deleted.load()) {
+    fs::remove_all(work.dir, ec);
+    return Status::ok();
+  }
+  const bool exited = WIFEXITED(wait_status);
+  const int code = exited ? WEXITSTATUS(wait_status) : -1;
+  // lgpd may be stopping by a signal that also reached the child first (a service manager
+  // signals the whole cgroup): give the shutdown a moment to show before calling it a failure.
+  if (!(exited && code == 0) && !job.cancel.load())
+    for (int i = 0; i < 40 && !job.shutdown.load(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  pollStatus();
+  if (auto st = readJsonFile(work.status())) applyStatus(*st, counters);
+
+  if (job.shutdown.load() && !(exited && code == 0) && !job.cancel.load()) {
+    // Stays "running": the next lgpd relaunches it with --resume.
+    pollCheckpoint();
+    spdlog::info("run {} stopped for shutdown at generation {}", id, counters.generation);
+    return Status::ok();
+  }
+  std::optional<json> front;
+  if (exited && (code == 0 || code == 130)) {
+    front = readJsonFile(work.front());
+    if (front && (!front->is_object() || front->value("format", "") != "lgp-front/1"))
+      front.reset();
+  }
+  if (job.cancel.load()) {
+    // With no front file (the launch died instead of stopping) the last snapshot is final.
+    if (front) applyFront(*front, counters);
+    auto s = store_.finishRun(id, RunStatus::Cancelled, front ? &*front : nullptr, counters, "");
+    if (!s) return s;
+    spdlog::info("run {} cancelled at generation {}{}", id, counters.generation,
+                 front ? "" : " (no final front from the launch: " + how + ")");
+    fs::remove_all(work.dir, ec);
+    return Status::ok();
+  }
+  if (exited && code == 0 && front) {
+    applyFront(*front, counters);
+    auto s = store_.finishRun(id, RunStatus::Finished, &*front, counters, "");
+    if (!s) return s;
+    spdlog::info("run {} finished: generation {}, {} evaluations, front of {}", id,
+                 counters.generation, counters.evaluations, counters.front_size);
+    fs::remove_all(work.dir, ec);
+    return Status::ok();
+  }
+  // Failed: the newest checkpoint goes to the store (it stays there), the work dir with its
+  // log stays for a post-mortem.
+  pollCheckpoint();
+  std::string msg = "MPI launch failed: " + how + hintFor(wait_status);
+  if (exited && code == 0) msg += ", but wrote no valid front to " + work.front().string();
+  const std::string tail = fileTail(work.log(), 15, 3000);
+  if (!tail.empty()) msg += "; last output:\n" + tail;
+  return Status::error(msg);
 }
 
 bool JobManager::isActive(const std::string& id) const {
@@ -516,7 +839,11 @@ Expected<bool> JobManager::remove(const std::string& id) {
   // flag, and foreign keys reject any write that races with this.
   auto r = store_.deleteRun(id);
   std::error_code ec;
-  if (isValidRunId(id)) fs::remove(inlineTablePath(id), ec);
+  if (isValidRunId(id)) {
+    fs::remove(inlineTablePath(id), ec);
+    // An active MPI job removes its work dir itself once its launcher is gone.
+    if (!isActive(id)) fs::remove_all(mpiWorkDir(id), ec);
+  }
   return r;
 }
 

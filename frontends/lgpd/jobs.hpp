@@ -11,6 +11,15 @@
 // as "cancelled" with the front it had. Delete: as cancel, then every row of the run goes.
 // Shutdown (SIGINT/SIGTERM): each job checkpoints and stays "running", so the next lgpd
 // resumes it. After kill -9 the same happens from the last checkpoint.
+//
+// A run whose config sets mpi.np > 0 runs out of process instead: the job thread writes the
+// config into <data-dir>/mpi/<id>/, starts `launcher -np N ... lgp run` there (mpi_launch.hpp)
+// and polls the files the child writes: its status becomes the progress counters, each new
+// checkpoint is stored (with a front rebuilt from it), and its final front finishes the run.
+// Cancel, delete and shutdown send SIGUSR1 to the launcher (it forwards it to every rank),
+// then SIGTERM after mpi.stop_grace_s, then SIGKILL to its process group. A relaunch resumes
+// with --resume from the newest checkpoint (the work dir's file or the store's); any launch
+// that fails marks the run failed, so a broken run is never relaunched in a loop.
 #pragma once
 
 #include <condition_variable>
@@ -26,6 +35,7 @@
 #include "daemon_config.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/core/table.hpp"
+#include "mpi_launch.hpp"
 #include "store.hpp"
 
 namespace lgpd {
@@ -68,18 +78,24 @@ class JobManager {
   lgp::Expected<lgp::RunConfig> config(const RunRecord& run) const;
 
   const DaemonConfig& daemonConfig() const { return cfg_; }
+  // The MPI launcher and lgp binary as resolved at construction.
+  const MpiTools& mpiTools() const { return mpi_; }
 
  private:
   struct Job;
   void schedulerLoop();
   void launch(const std::string& id, bool resume);
   void runJob(Job& job);
+  // The out-of-process job of an MPI run. An error fails the run (unless it was deleted).
+  lgp::Status runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg);
+  std::filesystem::path mpiWorkDir(const std::string& id) const;
   lgp::Status resolveInlineTable(const RunRecord& run) const;
   std::filesystem::path inlineTablePath(const std::string& id) const;
   lgp::Status checkDataPath(const std::filesystem::path& p) const;
 
   Store& store_;
   DaemonConfig cfg_;
+  MpiTools mpi_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::map<std::string, std::unique_ptr<Job>> jobs_;  // active jobs

@@ -517,7 +517,7 @@ Status Store::writeFrontSnapshot(const std::string& id, const json& front, const
   return tx.commit();
 }
 
-Status Store::writeCheckpoint(const std::string& id, const json& state, const json& front,
+Status Store::writeCheckpoint(const std::string& id, const json& state, const json* front,
                               const RunCounters& c) {
   auto blob = toCbor(state);  // outside the transaction: it can take a while
   LGPD_LEASE(l);
@@ -529,7 +529,8 @@ Status Store::writeCheckpoint(const std::string& id, const json& state, const js
           "created_at = excluded.created_at, state = excluded.state");
   st.bind(1, id).bind(2, c.generation).bind(3, unixNow()).bindBlob(4, blob);
   if (auto s = run(l.db(), st, "write checkpoint"); !s) return s;
-  if (auto s = upsertFront(l.db(), id, front, false, c.generation); !s) return s;
+  if (front)
+    if (auto s = upsertFront(l.db(), id, *front, false, c.generation); !s) return s;
   if (auto s = updateCounters(l.db(), id, c); !s) return s;
   if (auto s = addHistory(l.db(), id, c, "checkpoint"); !s) return s;
   return tx.commit();

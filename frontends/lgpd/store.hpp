@@ -106,9 +106,10 @@ class Store {
   // Live front snapshot (final = 0) plus counters, one transaction.
   lgp::Status writeFrontSnapshot(const std::string& id, const nlohmann::json& front,
                                  const RunCounters& c);
-  // Checkpoint + front snapshot + counters + a history row, one transaction.
+  // Checkpoint + front snapshot + counters + a history row, one transaction. front may be
+  // null (an MPI run's checkpoint whose front lgpd could not rebuild): the old snapshot stays.
   lgp::Status writeCheckpoint(const std::string& id, const nlohmann::json& state,
-                              const nlohmann::json& front, const RunCounters& c);
+                              const nlohmann::json* front, const RunCounters& c);
   // Final front + terminal status + counters + history row, one transaction; drops the
   // checkpoint (the front is what is kept). front may be null (failed before any front).
   lgp::Status finishRun(const std::string& id, RunStatus status, const nlohmann::json* front,

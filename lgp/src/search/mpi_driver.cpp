@@ -589,7 +589,11 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
         for (int r = 1; r < ranks && why.empty(); ++r)
           if (!own_reasons[r].empty() && own_reasons[r] != "generations") why = own_reasons[r];
         if (!why.empty() && why != "generations" && !stop_sent) {
-          if (!search->done()) search->requestStop();
+          if (!search->done()) {
+            // Rank 0 stops for another rank's reason: that is the run's reason, not "stopped".
+            search->requestStop();
+            if (global_reason.empty()) global_reason = why;
+          }
           for (int r = 1; r < ranks; ++r) comm.send(r, kControl, {{"stop", why}});
           stop_sent = true;
         }
@@ -627,7 +631,7 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
       }
     }
     if (stop) break;
-    search->step();
+    search->step(!sync);
     const auto now = Clock::now();
     if (rank != 0 && seconds(now - last_report) >= report_every) {
       json r = reportOf(*search);

@@ -422,12 +422,12 @@ void Search::initialize() {
   initialized_ = true;
 }
 
-void Search::step() {
+void Search::step(bool check_budget) {
   if (!initialized_) {
     initialize();
     return;
   }
-  if (done()) return;
+  if (check_budget && done()) return;
   const int g = generation_ + 1;
   const int n = localPopulation();
   const int base = offspringBase();  // offspring keep their global index in every RNG stream

@@ -118,8 +118,10 @@ class Search {
   // result of a multi-step run), with the given counters for progress(); no further steps.
   void adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,
              double elapsed_s, const std::string& stop_reason);
-  // One generation. No-op once done().
-  void step();
+  // One generation. No-op once done(), unless check_budget is false (the MPI driver's sync
+  // mode: every rank has agreed to run this generation, and one that skipped it would leave
+  // its neighbours waiting for its migrants).
+  void step(bool check_budget = true);
   bool done() const;
   // Thread-safe; the run stops after the current generation.
   void requestStop() { stop_.store(true); }
