@@ -273,6 +273,15 @@ TEST_F(Mpi, AKilledRankEndsTheJobAndTheCheckpointResumes) {
     EXPECT_EQ(f["progress"]["generation"], generation + 15) << launch;
     EXPECT_GT(f["progress"]["evaluations"].get<double>(), state["evaluations"].get<double>());
   }
+  // The async checkpoint's ranks may stand a generation apart; a sync resume lines them up
+  // (else their migration rounds would not match and the ranks would wait for each other).
+  auto sync = j;
+  sync["mpi"]["migration"] = "sync";
+  fs::copy_file(ck, dir / "resume.json", fs::copy_options::overwrite_existing);
+  const auto r = sh(mpirun(2) + " run " + config(sync, "sync.json") + " -q --resume --checkpoint " +
+                    (dir / "resume.json").string() + more);
+  ASSERT_EQ(r.code, 0) << r.out;
+  expectValidFront(readJson(dir / "front.json"));
 }
 
 TEST_F(Mpi, BadInputIsReportedOnceAndEveryRankExits) {

@@ -439,8 +439,14 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
     try {
       const json& ck = resume_state;
       const auto& parts = ck.value("parts", json::array());
+      // Sync mode needs every rank at the same generation (migration rounds are matched by
+      // order); the parts of an async checkpoint may be a generation or two apart.
+      bool same_generation = true;
+      for (const auto& p : parts)
+        same_generation =
+            same_generation && p.value("generation", -1) == ck.value("generation", -2);
       if (static_cast<int>(parts.size()) == ranks && ck.value("island_total", 0) == total &&
-          parts[rank].value("island_first", -1) == first) {
+          parts[rank].value("island_first", -1) == first && (!sync || same_generation)) {
         start = search->restore(parts[rank]);  // the same layout: each rank exactly
       } else {
         // Another rank count: islands dealt anew, every rank starts from the whole archive,
