@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # One entry point for a fresh machine:
-#   scripts/lgp.sh run    install what is missing, build Release, run the example search
-#   scripts/lgp.sh test   install what is missing, build Release, run the whole test suite
+#   scripts/lgp.sh run    install what is missing, build the `lgp` CLI (Release) and only it,
+#                         run the example search
+#   scripts/lgp.sh test   install what is missing, build everything (Release), run the whole
+#                         test suite
 #   scripts/lgp.sh deps   only install the Debian packages
-#   scripts/lgp.sh build  install + build
+#   scripts/lgp.sh build [TARGET...]  install + build the targets (default: everything)
 # Environment: BUILD_DIR (default build/release), JOBS (default nproc).
 set -euo pipefail
 
@@ -40,17 +42,27 @@ deps() {
     "${missing[@]}" >/dev/null
 }
 
+# Configures the whole project (tests and benchmarks included, so a later `test` reuses the
+# build tree) and builds the given targets, or everything.
 build() {
   cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE=Release >/dev/null
-  cmake --build "$BUILD_DIR" -j "$JOBS"
+  if (($# > 0)); then
+    cmake --build "$BUILD_DIR" -j "$JOBS" --target "$@"
+  else
+    cmake --build "$BUILD_DIR" -j "$JOBS"
+  fi
 }
 
 cmd="${1:-}"
 case "$cmd" in
   deps) deps ;;
-  build) deps; build ;;
+  build)
+    shift
+    deps; build "$@"
+    ;;
   run)
-    deps; build
+    # The example needs the CLI only; tests and benchmarks are built by `test`.
+    deps; build lgp
     cd "$ROOT/examples"
     "$BUILD_DIR/frontends/lgp" run quickstart.json
     "$BUILD_DIR/frontends/lgp" front quickstart-front.json

@@ -1,4 +1,5 @@
-// dfg: TABLES.md check values, limits, hard cases and cross-checks of independent integrators.
+// dfg: check values (docs/tables.md), limits, hard cases and cross-checks of independent
+// integrators.
 #include "lgp/datasets/dfg.hpp"
 
 #include <gtest/gtest.h>
@@ -25,7 +26,7 @@ TEST(Dfg, CheckValuesFromTables) {
   } pts[] = {{1.0, 1.0, 0.30686}, {0.5, 1.0, 0.45069}, {0.5, 0.25, 0.85726}, {0.2, 0.5, 0.78993}};
   for (auto p : pts) {
     const DfgValue v = dfgPoint(p.mu, p.alpha, kCorr, true, method(IntegratorKind::Adaptive));
-    // TABLES.md rounds 1 - ln 2 = 0.3068528 up to 0.30686; 1e-5 covers that, and the
+    // The check value 0.30686 is 1 - ln 2 = 0.3068528 rounded up; 1e-5 covers that, and the
     // closed form is checked to 1e-9 below.
     EXPECT_NEAR(v.E, p.e, 1e-5) << "mu=" << p.mu << " alpha=" << p.alpha;
     if (p.mu != 1.0) {

@@ -47,8 +47,8 @@ TEST(Zh, DisneyIndependentIntegratorsAgree) {
 }
 
 TEST(Zh, SeedShape) {
-  // Seed 000 section 6: the ratios are close to the constants 1.1564 and 0.5634, and beta is
-  // small except at grazing, rough.
+  // Iwanicki & Pesce 2015 (Disney diffuse in ZH): the ratios are close to their constant fits
+  // 1.1564 and 0.5634, and beta is small except at grazing, rough.
   const auto o = method(IntegratorKind::Adaptive);
   for (double mu : {0.1, 0.5, 0.9})
     for (double r : {0.0, 0.5, 1.0}) {

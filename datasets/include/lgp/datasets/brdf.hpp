@@ -1,4 +1,4 @@
-// Microfacet and diffuse BRDF terms shared by the generators (TABLES.md "Notation").
+// Microfacet and diffuse BRDF terms shared by the generators (conventions: docs/tables.md).
 // Frame: n = +z, v = (sqrt(1 - mu^2), 0, mu). All functions are branch-light and finite for
 // alpha > 0 and every mu in [0, 1]; alpha = 0 (a delta lobe) is handled by the callers with
 // its analytic limit.
