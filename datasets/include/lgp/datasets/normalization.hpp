@@ -26,8 +26,9 @@
 //     = [2 integral_{cos theta_s}^1 E(mu) mu dmu] / [2 pi sin^2(theta_s) integral_0^1 g mu_v
 //     dmu_v].
 // Limits: N -> 1 as theta_s -> 0 (both sides tend to sin^2(theta_s) E(1)); N(theta_s = 0) = 1.
-// N grows without bound as alpha -> 0 (the smoothed point never reaches the mirror direction),
-// so the normalization grid must have r > 0; the scene parser rejects r <= 0.
+// N -> 0 as alpha -> 0 at a fixed theta_s > 0: P_rep then grows like a delta lobe aimed at the
+// representative point, while P_true stays bounded; the table uses that limit,
+// N(alpha = 0, theta_s > 0) = 0.
 // Integrators: Gauss/adaptive use the 1-D forms above (E from dfg.hpp at Gauss nodes).
 // QMC instead estimates P_true as the 4-D double integral (uniform cone x cosine hemisphere)
 // and P_rep with 3-D vectors over the hemisphere: an independent check of the reduction.
