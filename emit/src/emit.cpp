@@ -376,12 +376,14 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
                            " which does not exist");
 
   Ctx ctx{lang, opts.precision, opts.exact_math};
-  SimplifyOptions so;
+  // The front printer's DAG (formula.hpp), folded in the emitted precision.
+  SimplifyOptions so = formulaSimplifyOptions(in.domain);
   so.precision = opts.precision;
   so.pow_rewrites = opts.pow_rewrites;
-  so.domain = in.domain;
+  so.domain_rewrites = opts.domain_rewrites;
   Emitted out;
   out.dag = simplify(buildDag(in.program, ni), so);
+  out.formula = printFormula(out.dag, in.input_names, in.output_names).text();
   const Dag& d = out.dag;
   const std::vector<Interval> iv = nodeIntervals(d, in.domain);
 
@@ -467,6 +469,7 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
         dom += " in [" + formatFloat(static_cast<float>(in.domain[i].lo)) + ", " +
                formatFloat(static_cast<float>(in.domain[i].hi)) + "]";
     }
+    line("Formula: " + out.formula);
     line("Fitted on: " +
          (in.table_desc.empty() ? std::string("(table not recorded)") : in.table_desc) +
          "; domain " + dom);

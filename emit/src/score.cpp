@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/cancellation.hpp"
+#include "lgp/core/formula.hpp"
 #include "lgp/emit/dag.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/io/result.hpp"
@@ -27,16 +30,27 @@ Expected<nlohmann::json> scoreProgram(const Program& p, const Table& t, const Sc
   const double err = combineError(scorer.channelMetrics(p), ec);
   j["error"] = std::isfinite(err) ? nlohmann::json(err) : nlohmann::json(nullptr);
   j["cost"] = o.cost.programCost(p);
-  j["discontinuity"] = o.discontinuity.programDiscontinuity(p);
+  const auto domain = tableDomain(t);
+  DiscontinuityModel disc = o.discontinuity;
+  if (disc.domain.empty()) disc.domain = domain;  // as the search counts it
+  j["discontinuity"] = disc.programDiscontinuity(p);
   nlohmann::json cbt = nlohmann::json::object();
   for (int k = 0; k < kNumCostTargets; ++k)
     cbt[std::string(kCostTargetNames[k])] =
         CostModel::preset(static_cast<CostTarget>(k)).programCost(p);
   j["cost_by_target"] = cbt;
+  // The front's printer: the simplified DAG on the table's domain.
+  const Dag fd = formulaDag(p, static_cast<int>(t.numInputs()), domain);
+  const auto texts = printOutputs(fd, t.input_names);
+  j["formula"] = printFormula(fd, t.input_names, t.output_names).text();
+  const auto canc = cancellation(fd, t, {});
+  j["cancellation"] = {{"bits_lost", canc.bits_lost}, {"flagged", canc.flagged}};
   nlohmann::json outs = nlohmann::json::array();
   for (size_t k = 0; k < t.numOutputs(); ++k)
     outs.push_back({{"name", t.output_names[k]},
-                    {"expression", k < infix.size() ? infix[k] : std::string()},
+                    {"expression", k < texts.size()   ? texts[k]
+                                   : k < infix.size() ? infix[k]
+                                                      : std::string()},
                     {"transform", "none"},
                     {"float32", metricsToJson(mf[k])},
                     {"double", metricsToJson(md[k])}});
@@ -81,12 +95,13 @@ Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs) {
   if (refs.is_null()) return out;
   if (!refs.is_array()) return Status::error("/references: must be an array");
   for (size_t i = 0; i < refs.size(); ++i) {
-    const std::string path = "/references/" + std::to_string(i);
+    const std::string path = jsonPath("/references", i);
     const auto& r = refs[i];
     if (!r.is_object()) return Status::error(path + ": must be an object {\"name\", \"expr\"}");
-    for (const auto& [key, v] : r.items())
-      if (key != "name" && key != "expr" && key != "aliases" && key != "refit")
-        return Status::error(path + "/" + key + ": unknown key (name, expr, aliases, refit)");
+    JsonObjectReader keys(r, path);
+    keys.allow({"name", "expr", "aliases", "refit"});
+    if (auto k = keys.unknownKey())
+      return Status::error(jsonError(*k, "unknown key (name, expr, aliases, refit)"));
     Reference ref;
     if (!r.contains("name") || !r["name"].is_string() || r["name"].get<std::string>().empty())
       return Status::error(path + "/name: must be a non-empty string");
@@ -98,7 +113,7 @@ Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs) {
     } else if (e.is_array() && !e.empty()) {
       for (size_t k = 0; k < e.size(); ++k) {
         if (!e[k].is_string())
-          return Status::error(path + "/expr/" + std::to_string(k) + ": must be a string");
+          return Status::error(jsonError(jsonPath(path + "/expr", k), "must be a string"));
         ref.expr.push_back(e[k].get<std::string>());
       }
     } else {
@@ -108,7 +123,8 @@ Expected<std::vector<Reference>> parseReferences(const nlohmann::json& refs) {
       if (!r["aliases"].is_object())
         return Status::error(path + "/aliases: must be an object {\"NoV\": \"mu\"}");
       for (const auto& [from, to] : r["aliases"].items()) {
-        if (!to.is_string()) return Status::error(path + "/aliases/" + from + ": must be a string");
+        if (!to.is_string())
+          return Status::error(jsonError(jsonPath(path + "/aliases", from), "must be a string"));
         ref.aliases[from] = to.get<std::string>();
       }
     }

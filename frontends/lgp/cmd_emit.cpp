@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/io/result.hpp"
+#include "table_source.hpp"
 
 namespace {
 
@@ -35,6 +36,16 @@ int emitMain(int argc, char** argv) {
       cxxopts::value<std::string>()->default_value("float"))(
       "fast", "raw operators where the protected branch is proven unreachable on the domain")(
       "no-pow-rewrites", "keep pow(x, 2) etc. as protected pow")(
+      "no-domain-rewrites",
+      "keep piecewise ops whose branch never switches on the domain (abs, saturate, min, max, "
+      "select)")("snap",
+                 "snap the member's constants to simple values first (needs the run's table)")(
+      "tolerance", "relative error growth --snap allows",
+      cxxopts::value<double>()->default_value(std::to_string(lgp::kSnapTolerance)))(
+      "data", "the run's table for --snap (default: the config's data, found next to the front)",
+      cxxopts::value<std::string>())(
+      "cancel-bits", "warn when the member loses more than this many float32 bits to cancellation",
+      cxxopts::value<double>()->default_value(std::to_string(lgp::kCancellationFlagBits)))(
       "exact-math", "C++ float: the interpreter's own exp2/log2/sin/cos (bit-identical)")(
       "table", "table (CSV/JSON) to re-measure the error of the emitted code on, e.g. in half",
       cxxopts::value<std::string>())("no-header", "omit the header comment")(
@@ -63,6 +74,7 @@ int emitMain(int argc, char** argv) {
   eo.precision = *prec;
   eo.fast = args.count("fast") > 0;
   eo.pow_rewrites = args.count("no-pow-rewrites") == 0;
+  eo.domain_rewrites = args.count("no-domain-rewrites") == 0;
   eo.exact_math = args.count("exact-math") > 0;
   eo.header = args.count("no-header") == 0;
   eo.helpers = args.count("no-helpers") == 0;
@@ -79,6 +91,34 @@ int emitMain(int argc, char** argv) {
   }
   auto member = lgp::emit::selectMember(*front, sel);
   if (!member) return fail(member.error());
+
+  nlohmann::json m = (*front)["members"][*member];
+  if (args.count("snap")) {
+    lgp::SnapOptions so;
+    so.tolerance = args["tolerance"].as<double>();
+    if (!(so.tolerance >= 0)) return fail("--tolerance: must be >= 0");
+    auto cfg =
+        lgp::frontRunConfig(*front, path, args.count("data") ? args["data"].as<std::string>() : "");
+    if (!cfg) return fail(path + ": " + cfg.error());
+    auto t = lgp::cli::loadRunTable(*cfg);
+    if (!t) return fail(t.error());
+    auto sm = lgp::snapFrontMember(*front, *member, *cfg, *t, so);
+    if (!sm) return fail(path + ": " + sm.error());
+    m = *sm;
+    (*front)["members"][*member] = m;  // emitted from the snapped program and metrics
+    std::fprintf(stderr, "lgp emit: snapped %d constants (error %s -> %s)\n",
+                 m["snap"]["constants"].get<int>(), m["snap"]["error_before"].dump().c_str(),
+                 m["error"].dump().c_str());
+  }
+  if (m.contains("cancellation") && m["cancellation"].is_object()) {
+    const double bits = m["cancellation"].value("bits_lost", 0.0);
+    if (bits > args["cancel-bits"].as<double>())
+      std::fprintf(
+          stderr,
+          "warning: member %zu loses %.1f of float32's 24 bits to cancellation (constants "
+          "that cancel); its result is fragile on a GPU, with or without FMA contraction\n",
+          *member, bits);
+  }
 
   auto in = lgp::emit::emitInputFromFront(*front, *member);
   if (!in) return fail(path + ": " + in.error());

@@ -1,5 +1,6 @@
-// `lgp front result.json` prints a front as a table; `lgp front RUN --daemon URL` fetches a
-// run's front from lgpd.
+// `lgp front result.json` prints a front as a table (each member's simplified formula, its
+// bits lost to cancellation); `--snap` snaps constants first against the run's table;
+// `lgp front RUN --daemon URL` fetches a run's front from lgpd.
 #include <cstdio>
 #include <cxxopts.hpp>
 #include <iostream>
@@ -7,6 +8,7 @@
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
+#include "table_source.hpp"
 #ifdef LGP_HAVE_DAEMON_CLIENT
 #include "daemon_client.hpp"
 #endif
@@ -22,8 +24,17 @@ int frontMain(int argc, char** argv) {
                                                     "print the members as JSON instead of a table")(
       "daemon", "lgpd URL; the positional argument is then a run id",
       cxxopts::value<std::string>())(
-      "o,out", "with --daemon: also save the front JSON here", cxxopts::value<std::string>())(
-      "h,help", "this help");
+      "o,out", "with --daemon: also save the front JSON here; with --snap: save the snapped front",
+      cxxopts::value<std::string>())(
+      "snap",
+      "snap every member's constants to simple values (0, integers, p/q, short decimals) where "
+      "the error grows by less than --tolerance; needs the run's table")(
+      "tolerance", "relative error growth --snap allows",
+      cxxopts::value<double>()->default_value(std::to_string(lgp::kSnapTolerance)))(
+      "data", "the run's table for --snap (default: the config's data, found next to the front)",
+      cxxopts::value<std::string>())(
+      "cancel-bits", "flag members that lose more than this many float32 bits to cancellation",
+      cxxopts::value<double>())("h,help", "this help");
   opts.parse_positional({"front"});
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "front", "no front file given");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
@@ -39,10 +50,45 @@ int frontMain(int argc, char** argv) {
     return 2;
 #endif
   }
-  auto front = lgp::readFrontJson(args["front"].as<std::string>());
+  const std::string path = args["front"].as<std::string>();
+  auto front = lgp::readFrontJson(path);
   if (!front) {
     std::fprintf(stderr, "error: %s\n", front.error().c_str());
     return 2;
+  }
+  lgp::FrontTableOptions to;
+  if (args.count("cancel-bits")) to.cancel_bits = args["cancel-bits"].as<double>();
+  std::string snapped_note;
+  if (args.count("snap")) {
+    auto fail = [&](const std::string& m) {
+      std::fprintf(stderr, "error: %s: %s\n", path.c_str(), m.c_str());
+      return 2;
+    };
+    lgp::SnapOptions so;
+    so.tolerance = args["tolerance"].as<double>();
+    if (!(so.tolerance >= 0)) return fail("--tolerance: must be >= 0");
+    auto cfg =
+        lgp::frontRunConfig(*front, path, args.count("data") ? args["data"].as<std::string>() : "");
+    if (!cfg) return fail(cfg.error());
+    auto table = lgp::cli::loadRunTable(*cfg);
+    if (!table) return fail(table.error());
+    int constants = 0, members = 0;
+    for (size_t i = 0; i < (*front)["members"].size(); ++i) {
+      auto m = lgp::snapFrontMember(*front, i, *cfg, *table, so);
+      if (!m) return fail(m.error());
+      const int n = (*m)["snap"]["constants"].get<int>();
+      constants += n;
+      members += n > 0;
+      (*front)["members"][i] = std::move(*m);
+    }
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "snapped: %d constants in %d of %zu members (error growth <= %g relative)\n",
+                  constants, members, (*front)["members"].size(), so.tolerance);
+    snapped_note = buf;
+    if (args.count("out"))
+      if (auto st = lgp::writeFrontJson(*front, args["out"].as<std::string>()); !st)
+        return fail(st.message());
   }
   if (args.count("json")) {
     std::cout << (*front)["members"].dump(2) << "\n";
@@ -53,7 +99,8 @@ int frontMain(int argc, char** argv) {
               (*front)["members"].size(), t["inputs"].dump().c_str(), t["outputs"].dump().c_str(),
               t.value("rows", size_t{0}), front->value("cost_model", "?").c_str(),
               front->value("error_metric", "?").c_str());
-  std::fputs(lgp::formatFrontTable(*front).c_str(), stdout);
+  std::fputs(lgp::formatFrontTable(*front, to).c_str(), stdout);
+  std::fputs(snapped_note.c_str(), stdout);
   return 0;
 }
 

@@ -1,5 +1,6 @@
 // `lgp score table --expr "..."`: metrics and cost of a formula on a table, with the same
 // fields as a front member (so published formulas can be compared with a front).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cxxopts.hpp>
@@ -144,9 +145,17 @@ int scoreMain(int argc, char** argv) {
   std::printf(")\n");
   std::printf("program: %d opcodes, %d piecewise, %zu constants\n", j["opcodes"].get<int>(),
               j["piecewise"].get<int>(), j["program"]["constants"].size());
-  for (const auto& o : j["outputs"])
-    std::printf("  %s = %s\n", o["name"].get<std::string>().c_str(),
-                o["expression"].get<std::string>().c_str());
+  // The simplified formula (the front's printer), one statement per line.
+  const std::string formula = j.value("formula", "");
+  for (size_t b = 0; b < formula.size();) {
+    const size_t e = std::min(formula.find("; ", b), formula.size());
+    std::printf("  %s\n", formula.substr(b, e - b).c_str());
+    b = e + 2;
+  }
+  if (j.contains("cancellation"))
+    std::printf("cancellation: %.1f float32 bits lost%s\n",
+                j["cancellation"]["bits_lost"].get<double>(),
+                j["cancellation"]["flagged"].get<bool>() ? " (flagged: constants cancel)" : "");
   std::printf("%-10s %-8s %11s %11s %11s %11s %11s\n", "output", "path", "rmse", "max_abs", "mae",
               "mean_rel", "r2");
   for (const auto& o : j["outputs"])

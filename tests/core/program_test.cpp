@@ -47,15 +47,22 @@ TEST(Program, PruneKeepsSemantics) {
 TEST(Program, InfixBindsSharedSubexpressionsOnce) {
   const auto s = toInfix(sample(), {"mu", "r"});
   ASSERT_EQ(s.size(), 1u);
-  EXPECT_EQ(s[0], "t0 = (mu * 2.5); (exp2(t0) - t0)");
+  EXPECT_EQ(s[0], "t0 = 2.5*mu; exp2(t0) - t0");  // constant factor first, no parentheses
 }
 
-TEST(Program, InfixParenthesisesNegativeConstants) {
+TEST(Program, InfixFoldsNegationsIntoConstants) {
   Program p;
   p.code = {Instr{Op::Neg, {C(0)}}};
   p.constants = {-0.25f};
   p.outputs = {0};
-  EXPECT_EQ(toInfix(p, {"x"})[0], "(-(-0.25))");
+  EXPECT_EQ(toInfix(p, {"x"})[0], "0.25");  // -(-0.25), folded
+  // (-7)*x + (-4)*x^2: signs become subtraction, negative literals lose their parentheses.
+  Program q;
+  q.code = {Instr{Op::Square, {X(0)}}, Instr{Op::Mul, {C(1), R(0)}},
+            Instr{Op::Mad, {C(0), X(0), R(1)}}};
+  q.constants = {-7.0f, -4.0f};
+  q.outputs = {2};
+  EXPECT_EQ(toInfix(q, {"x"})[0], "-7*x - 4*x^2");
 }
 
 TEST(Program, JsonRoundTrip) {

@@ -7,6 +7,8 @@
 #include <set>
 #include <sstream>
 
+#include "lgp/config/json_reader.hpp"
+
 namespace lgp {
 
 std::string_view toString(RefineMethod m) {
@@ -35,32 +37,25 @@ struct ConfigError {
 };
 
 [[noreturn]] void fail(const std::string& path, const std::string& why) {
-  throw ConfigError{(path.empty() ? "/" : path) + ": " + why};
+  throw ConfigError{jsonError(path, why)};
 }
 
 std::string typeName(const nlohmann::json& v) {
   return v.type_name();
 }
 
-// Reads one JSON object, remembering which keys were consumed so unknown keys are reported.
+// Reads one JSON object with the run config's typed checks; the keys it did not read are
+// unknown (finish()).
 class Obj {
  public:
-  Obj(const nlohmann::json& j, std::string path) : j_(j), path_(std::move(path)) {
-    if (!j_.is_object()) fail(path_, "must be an object (got " + typeName(j_) + ")");
+  Obj(const nlohmann::json& j, std::string path) : r_(j, std::move(path)) {
+    if (!r_.isObject()) fail(r_.path(), "must be an object (got " + typeName(j) + ")");
   }
-  ~Obj() = default;
-  bool has(const std::string& k) {
-    seen_.insert(k);
-    return j_.contains(k);
-  }
-  const nlohmann::json& at(const std::string& k) {
-    seen_.insert(k);
-    return j_.at(k);
-  }
-  std::string path(const std::string& k) const { return path_ + "/" + k; }
+  bool has(const std::string& k) { return r_.has(k); }
+  const nlohmann::json& at(const std::string& k) { return r_.at(k); }
+  std::string path(const std::string& k) const { return r_.path(k); }
   void finish() const {
-    for (auto it = j_.begin(); it != j_.end(); ++it)
-      if (!seen_.count(it.key())) fail(path_ + "/" + it.key(), "unknown key");
+    if (auto k = r_.unknownKey()) fail(*k, "unknown key");
   }
 
   void integer(const std::string& k, int& out, long long lo, long long hi) {
@@ -113,7 +108,7 @@ class Obj {
     if (!v.is_array()) fail(path(k), "must be an array of strings (got " + typeName(v) + ")");
     out.clear();
     for (size_t i = 0; i < v.size(); ++i) {
-      if (!v[i].is_string()) fail(path(k) + "/" + std::to_string(i), "must be a string");
+      if (!v[i].is_string()) fail(jsonPath(path(k), i), "must be a string");
       out.push_back(v[i].get<std::string>());
     }
   }
@@ -128,9 +123,7 @@ class Obj {
   }
 
  private:
-  const nlohmann::json& j_;
-  std::string path_;
-  std::set<std::string> seen_;
+  JsonObjectReader r_;
 };
 
 std::string opChoices() {
@@ -153,7 +146,7 @@ std::map<Op, double> opNumberMap(Obj& o, const std::string& k) {
   const auto& v = o.at(k);
   if (!v.is_object()) fail(o.path(k), "must be an object of operator -> number");
   for (auto it = v.begin(); it != v.end(); ++it) {
-    const std::string p = o.path(k) + "/" + it.key();
+    const std::string p = jsonPath(o.path(k), it.key());
     const Op op = parseOp(nlohmann::json(it.key()), p);
     if (!it.value().is_number() || !(it.value().get<double>() >= 0) ||
         !std::isfinite(it.value().get<double>()))
@@ -173,9 +166,9 @@ void parseData(const nlohmann::json& j, DataConfig& d) {
   o.string("cache_dir", d.cache_dir);
   if (o.has("transforms")) {
     const auto& t = o.at("transforms");
-    if (!t.is_object()) fail("/data/transforms", "must be an object of output -> transform");
+    if (!t.is_object()) fail(o.path("transforms"), "must be an object of output -> transform");
     for (auto it = t.begin(); it != t.end(); ++it) {
-      const std::string p = "/data/transforms/" + it.key();
+      const std::string p = jsonPath(o.path("transforms"), it.key());
       if (!it.value().is_string()) fail(p, "must be one of none, log, sqrt, rcp");
       auto tr = targetTransformFromString(it.value().get<std::string>());
       if (!tr)
@@ -208,7 +201,7 @@ void parseProgram(const nlohmann::json& j, ProgramConfig& p) {
     p.ops.clear();
     std::set<Op> seen;
     for (size_t i = 0; i < v.size(); ++i) {
-      const Op op = parseOp(v[i], "/program/ops/" + std::to_string(i));
+      const Op op = parseOp(v[i], jsonPath(o.path("ops"), i));
       if (seen.insert(op).second) p.ops.push_back(op);
     }
   }
@@ -235,7 +228,7 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
       fail("/objectives/channels", "must be an array of {\"name\", \"weights\"} objects");
     std::set<std::string> names;
     for (size_t i = 0; i < v.size(); ++i) {
-      Obj ch(v[i], "/objectives/channels/" + std::to_string(i));
+      Obj ch(v[i], jsonPath(o.path("channels"), i));
       ChannelConfig cc;
       ch.string("name", cc.name);
       if (cc.name.empty()) fail(ch.path("name"), "must be a non-empty string");
@@ -245,7 +238,7 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
         fail(ch.path("weights"), "must be a non-empty object of output name -> weight");
       for (auto it = ch.at("weights").begin(); it != ch.at("weights").end(); ++it) {
         if (!it.value().is_number() || !std::isfinite(it.value().get<double>()))
-          fail(ch.path("weights") + "/" + it.key(), "must be a finite number");
+          fail(jsonPath(ch.path("weights"), it.key()), "must be a finite number");
         cc.weights[it.key()] = it.value().get<double>();
       }
       ch.finish();
@@ -369,7 +362,7 @@ void parseOutput(const nlohmann::json& j, OutputConfig& out) {
     if (!v.is_array()) fail("/output/progress_cost_levels", "must be an array of numbers");
     for (size_t i = 0; i < v.size(); ++i) {
       if (!v[i].is_number() || !(v[i].get<double>() >= 0))
-        fail("/output/progress_cost_levels/" + std::to_string(i), "must be a number >= 0");
+        fail(jsonPath(o.path("progress_cost_levels"), i), "must be a number >= 0");
       out.progress_cost_levels.push_back(v[i].get<double>());
     }
   }
@@ -430,11 +423,12 @@ Status RunConfig::validate() const {
     return std::find(data.outputs.begin(), data.outputs.end(), n) != data.outputs.end();
   };
   for (size_t i = 0; i < objectives.channels.size(); ++i) {
-    const std::string p = "/objectives/channels/" + std::to_string(i) + "/weights";
+    const std::string p = jsonPath(jsonPath("/objectives/channels", i), "weights");
     if (data.outputs.empty())
-      return Status::error(p + ": channels need the outputs listed in data.outputs");
+      return Status::error(jsonError(p, "channels need the outputs listed in data.outputs"));
     for (const auto& [name, _] : objectives.channels[i].weights)
-      if (!isOutput(name)) return Status::error(p + "/" + name + ": not one of data.outputs");
+      if (!isOutput(name))
+        return Status::error(jsonError(jsonPath(p, name), "not one of data.outputs"));
   }
   if (search.multi_output.mode == MultiOutputMode::TwoStep) {
     const std::string p = "/search/multi_output/first";
@@ -511,7 +505,7 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
       const auto& r = o.at("references");
       if (!r.is_array()) fail("/references", "must be an array of {\"name\", \"expr\"} objects");
       for (size_t i = 0; i < r.size(); ++i) {
-        const std::string p = "/references/" + std::to_string(i);
+        const std::string p = jsonPath(o.path("references"), i);
         if (!r[i].is_object() || !r[i].contains("expr"))
           fail(p, "must be an object with \"name\" and \"expr\"");
       }
@@ -524,7 +518,8 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
   for (const auto& [name, _] : c.data.transforms)
     if (!c.data.outputs.empty() &&
         std::find(c.data.outputs.begin(), c.data.outputs.end(), name) == c.data.outputs.end())
-      return Status::error("/data/transforms/" + name + ": not one of data.outputs");
+      return Status::error(
+          jsonError(jsonPath("/data/transforms", name), "not one of data.outputs"));
   if (auto s = c.validate(); !s) return s;
   return c;
 }

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -161,69 +160,6 @@ std::string formatDouble(double v) {
     if (std::strtod(buf, nullptr) == v) break;
   }
   return buf;
-}
-
-namespace {
-
-std::string operandText(const Program& p, const Operand& o,
-                        const std::vector<std::string>& input_names,
-                        const std::function<std::string(int)>& reg) {
-  switch (o.kind) {
-    case OperandKind::Var:
-      return o.index < input_names.size() ? input_names[o.index] : "x" + std::to_string(o.index);
-    case OperandKind::Const: {
-      const float v = o.index < p.constants.size() ? p.constants[o.index] : 0.0f;
-      // Negative literals are parenthesised so "(-x)" and "a - b" never produce "--".
-      return std::signbit(v) ? "(" + formatFloat(v) + ")" : formatFloat(v);
-    }
-    case OperandKind::Reg:
-      return reg(o.index);
-  }
-  return "?";
-}
-
-}  // namespace
-
-std::vector<std::string> toInfix(const Program& p, const std::vector<std::string>& input_names) {
-  std::vector<std::string> result;
-  const int n = static_cast<int>(p.code.size());
-  for (uint8_t out : p.outputs) {
-    // Use counts within this output's sub-DAG.
-    std::vector<int> uses(n, 0);
-    std::vector<uint8_t> reach(n, 0);
-    reach[out] = 1;
-    for (int i = out; i >= 0; --i) {
-      if (!reach[i]) continue;
-      const Instr& ins = p.code[i];
-      for (int a = 0; a < arity(ins.op); ++a)
-        if (ins.args[a].kind == OperandKind::Reg) {
-          reach[ins.args[a].index] = 1;
-          ++uses[ins.args[a].index];
-        }
-    }
-    std::vector<std::string> bound_name(n);
-    std::vector<std::string> memo(n);
-    std::string lets;
-    std::function<std::string(int)> expr = [&](int i) -> std::string {
-      if (!bound_name[i].empty()) return bound_name[i];
-      if (!memo[i].empty()) return memo[i];
-      const Instr& ins = p.code[i];
-      std::vector<std::string> args;
-      for (int a = 0; a < arity(ins.op); ++a)
-        args.push_back(operandText(p, ins.args[a], input_names, expr));
-      std::string e = fillOpTemplate(opInfo(ins.op).infix, args);
-      if (uses[i] > 1 && i != out) {
-        bound_name[i] = "t" + std::to_string(i);
-        lets += bound_name[i] + " = " + e + "; ";
-        return bound_name[i];
-      }
-      memo[i] = e;
-      return e;
-    };
-    std::string e = expr(out);
-    result.push_back(lets + e);
-  }
-  return result;
 }
 
 nlohmann::json toJson(const Program& p) {

@@ -123,8 +123,72 @@ double DiscontinuityModel::programDiscontinuity(const Program& p) const {
 double DiscontinuityModel::programDiscontinuity(const Program& p,
                                                 const std::vector<int>& effective) const {
   double d = 0;
-  for (int i : effective) d += weight[static_cast<int>(p.code[i].op)];
+  bool any = false;
+  for (int i : effective) {
+    const double w = weight[static_cast<int>(p.code[i].op)];
+    d += w;
+    any = any || (w != 0 && opInfo(p.code[i].op).piecewise);
+  }
+  if (!any || domain.empty()) return d;
+  // Only programs with a weighted piecewise operator pay for the intervals.
+  thread_local std::vector<Interval> iv;
+  programIntervals(p, domain, effective, iv);
+  d = 0;
+  Interval args[kMaxArity];
+  for (int i : effective) {
+    const Instr& in = p.code[i];
+    const double w = weight[static_cast<int>(in.op)];
+    if (w == 0) continue;
+    if (!opInfo(in.op).piecewise) {
+      d += w;
+      continue;
+    }
+    for (int k = 0; k < arity(in.op) && k < kMaxArity; ++k) {
+      const Operand& o = in.args[k];
+      if (o.kind == OperandKind::Reg) {
+        args[k] = iv[o.index];
+      } else if (o.kind == OperandKind::Var) {
+        args[k] = o.index < domain.size() ? inputInterval(domain[o.index]) : Interval{};
+      } else {
+        const double v = o.index < p.constants.size() ? p.constants[o.index] : 0.0;
+        args[k] = Interval{v, v, std::isnan(v)};
+      }
+    }
+    if (branchMaySwitch(in.op, args)) d += w;
+  }
   return d;
+}
+
+double float32ErrorFloor(const ErrorConfig& cfg, const Table& t) {
+  constexpr double u = 0x1p-24;
+  double total = 0, worst = 0;
+  for (const auto& y : t.outputs) {
+    double ss = 0, sa = 0, mx = 0;
+    for (double v : y) {
+      ss += v * v;
+      sa += std::fabs(v);
+      mx = std::max(mx, std::fabs(v));
+    }
+    const double n = std::max<double>(1, static_cast<double>(y.size()));
+    double f = u;
+    switch (cfg.metric) {
+      case ErrorMetric::Rmse:
+        f = u * std::sqrt(ss / n);
+        break;
+      case ErrorMetric::Mae:
+        f = u * sa / n;
+        break;
+      case ErrorMetric::MaxAbs:
+        f = u * mx;
+        break;
+      case ErrorMetric::MeanRel:
+        break;
+    }
+    total += f;
+    worst = std::max(worst, f);
+  }
+  if (t.outputs.empty()) return 0;
+  return cfg.combine == OutputCombine::Max ? worst : total / static_cast<double>(t.outputs.size());
 }
 
 double fastErrorBound(ErrorMetric m, double reference, double max_abs_target, int block_size,

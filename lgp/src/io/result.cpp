@@ -28,53 +28,62 @@ nlohmann::json metricsToJson(const OutputMetrics& m) {
           {"r2", num(m.r2)}};
 }
 
+namespace {
+nlohmann::json cancellationToJson(const Cancellation& c) {
+  return {{"bits_lost", c.bits_lost}, {"flagged", c.flagged}};
+}
+
+nlohmann::json memberToJson(size_t k, const FrontEntry& e, const Table& t,
+                            const ErrorConfig& err_cfg) {
+  nlohmann::json costs = nlohmann::json::object();
+  for (int c = 0; c < kNumCostTargets; ++c)
+    costs[std::string(kCostTargetNames[c])] = e.cost_by_target[c];
+  nlohmann::json outs = nlohmann::json::array();
+  for (size_t o = 0; o < t.numOutputs(); ++o) {
+    outs.push_back({{"name", t.output_names[o]},
+                    {"expression", o < e.infix.size() ? e.infix[o] : ""},
+                    {"transform", std::string(toString(err_cfg.transforms[o]))},
+                    {"float32", metricsToJson(e.metrics[o])},
+                    {"double", metricsToJson(e.metrics_ref[o])}});
+  }
+  nlohmann::json m = {{"index", k},
+                      {"error", num(e.obj.error)},
+                      {"cost", e.obj.cost},
+                      {"discontinuity", e.obj.discontinuity},
+                      {"cost_by_target", costs},
+                      {"formula", e.formula},
+                      {"cancellation", cancellationToJson(e.cancellation)},
+                      {"outputs", outs},
+                      {"program", toJson(e.program)}};
+  if (!err_cfg.channels.empty()) {
+    nlohmann::json chans = nlohmann::json::array();
+    for (size_t c = 0; c < err_cfg.channels.size() && c < e.channel_metrics.size(); ++c)
+      chans.push_back({{"name", err_cfg.channels[c].name},
+                       {"float32", metricsToJson(e.channel_metrics[c])},
+                       {"double", metricsToJson(e.channel_metrics_ref[c])}});
+    m["channels"] = chans;
+  }
+  return m;
+}
+}  // namespace
+
 nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front) {
   const Table& t = s.table();
   const auto& cfg = s.config();
   const auto err_cfg = cfg.errorConfig(t.output_names);
   nlohmann::json domain = nlohmann::json::object();
-  for (size_t i = 0; i < t.numInputs(); ++i) {
-    double lo = INFINITY, hi = -INFINITY;
-    for (double v : t.inputs[i]) {
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-    domain[t.input_names[i]] = {lo, hi};
-  }
+  const auto dom = tableDomain(t);  // what the search and the printer used
+  for (size_t i = 0; i < t.numInputs(); ++i) domain[t.input_names[i]] = {dom[i].lo, dom[i].hi};
   nlohmann::json members = nlohmann::json::array();
-  for (size_t k = 0; k < front.size(); ++k) {
-    const FrontEntry& e = front[k];
-    nlohmann::json costs = nlohmann::json::object();
-    for (int c = 0; c < kNumCostTargets; ++c)
-      costs[std::string(kCostTargetNames[c])] = e.cost_by_target[c];
-    nlohmann::json outs = nlohmann::json::array();
-    for (size_t o = 0; o < t.numOutputs(); ++o) {
-      outs.push_back({{"name", t.output_names[o]},
-                      {"expression", o < e.infix.size() ? e.infix[o] : ""},
-                      {"transform", std::string(toString(err_cfg.transforms[o]))},
-                      {"float32", metricsToJson(e.metrics[o])},
-                      {"double", metricsToJson(e.metrics_ref[o])}});
-    }
-    nlohmann::json m = {{"index", k},
-                        {"error", num(e.obj.error)},
-                        {"cost", e.obj.cost},
-                        {"discontinuity", e.obj.discontinuity},
-                        {"cost_by_target", costs},
-                        {"outputs", outs},
-                        {"program", toJson(e.program)}};
-    if (!err_cfg.channels.empty()) {
-      nlohmann::json chans = nlohmann::json::array();
-      for (size_t c = 0; c < err_cfg.channels.size() && c < e.channel_metrics.size(); ++c)
-        chans.push_back({{"name", err_cfg.channels[c].name},
-                         {"float32", metricsToJson(e.channel_metrics[c])},
-                         {"double", metricsToJson(e.channel_metrics_ref[c])}});
-      m["channels"] = chans;
-    }
-    members.push_back(std::move(m));
-  }
+  for (size_t k = 0; k < front.size(); ++k)
+    members.push_back(memberToJson(k, front[k], t, err_cfg));
+  std::error_code ec;
+  auto config_dir = cfg.base_dir;
+  if (!config_dir.empty()) config_dir = std::filesystem::absolute(config_dir, ec);
   const auto p = s.progress();
   return {{"format", "lgp-front/1"},
           {"config", toJson(cfg)},
+          {"config_dir", ec ? cfg.base_dir.string() : config_dir.lexically_normal().string()},
           {"table",
            {{"inputs", t.input_names},
             {"outputs", t.output_names},
@@ -186,7 +195,8 @@ std::string fmt(double v) {
 
 Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& path) {
   std::ostringstream os;
-  os << "index,output,error,cost,discontinuity,rmse,max_abs,mae,mean_rel,r2,expression\n";
+  os << "index,output,error,cost,discontinuity,rmse,max_abs,mae,mean_rel,r2,bits_lost,expression,"
+        "formula\n";
   for (const auto& m : front.at("members")) {
     for (const auto& o : m.at("outputs")) {
       const auto& f = o.at("float32");
@@ -195,7 +205,9 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
          << fmt(getNum(m, "discontinuity")) << "," << fmt(getNum(f, "rmse")) << ","
          << fmt(getNum(f, "max_abs")) << "," << fmt(getNum(f, "mae")) << ","
          << fmt(getNum(f, "mean_rel")) << "," << fmt(getNum(f, "r2")) << ","
-         << csvQuote(o.at("expression").get<std::string>()) << "\n";
+         << fmt(m.contains("cancellation") ? getNum(m["cancellation"], "bits_lost") : INFINITY)
+         << "," << csvQuote(o.at("expression").get<std::string>()) << ","
+         << csvQuote(m.value("formula", "")) << "\n";
     }
   }
   const auto tmp = path.string() + ".tmp";
@@ -250,32 +262,186 @@ Expected<Program> memberProgram(const nlohmann::json& front, size_t index) {
   return programFromJson(pj, shape);
 }
 
-std::string formatFrontTable(const nlohmann::json& front) {
-  std::ostringstream os;
-  const auto& outs = front.at("table").at("outputs");
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s  %s\n", "#", "cost", "disc", "error",
-                "rmse", "max_abs", "expression");
-  os << buf;
-  for (const auto& m : front.at("members")) {
-    bool first = true;
-    for (const auto& o : m.at("outputs")) {
-      const auto& f = o.at("float32");
-      std::string expr = o.at("expression").get<std::string>();
-      if (outs.size() > 1) expr = o.at("name").get<std::string>() + " = " + expr;
-      if (first) {
-        std::snprintf(buf, sizeof(buf), "%4zu %8.4g %5.3g %12.6g %12.6g %12.6g  ",
-                      m.at("index").get<size_t>(), getNum(m, "cost"), getNum(m, "discontinuity"),
-                      getNum(m, "error"), getNum(f, "rmse"), getNum(f, "max_abs"));
-      } else {
-        std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12.6g %12.6g  ", "", "", "", "",
-                      getNum(f, "rmse"), getNum(f, "max_abs"));
-      }
-      os << buf << expr << "\n";
-      first = false;
+std::vector<Interval> frontDomain(const nlohmann::json& front) {
+  std::vector<Interval> d;
+  const auto& t = front.at("table");
+  for (const auto& n : t.at("inputs")) {
+    Interval iv;
+    const std::string name = n.is_string() ? n.get<std::string>() : "";
+    if (t.contains("domain") && t["domain"].is_object() && t["domain"].contains(name)) {
+      const auto& r = t["domain"][name];
+      if (r.is_array() && r.size() == 2 && r[0].is_number() && r[1].is_number() &&
+          r[0].get<double>() <= r[1].get<double>())
+        iv = Interval{r[0].get<double>(), r[1].get<double>(), false};
     }
+    d.push_back(iv);
+  }
+  return d;
+}
+
+namespace {
+std::vector<std::string> names(const nlohmann::json& a) {
+  std::vector<std::string> v;
+  for (const auto& x : a) v.push_back(x.is_string() ? x.get<std::string>() : "");
+  return v;
+}
+}  // namespace
+
+Expected<Formula> memberFormulaStatements(const nlohmann::json& front, size_t index) {
+  auto p = memberProgram(front, index);
+  if (!p) return Status::error("/members/" + std::to_string(index) + "/program: " + p.error());
+  const auto ins = names(front.at("table").at("inputs"));
+  const auto outs = names(front.at("table").at("outputs"));
+  return printFormula(formulaDag(*p, static_cast<int>(ins.size()), frontDomain(front)), ins, outs);
+}
+
+Expected<std::string> memberFormula(const nlohmann::json& front, size_t index) {
+  auto f = memberFormulaStatements(front, index);
+  if (!f) return f.status();
+  return f->text();
+}
+
+std::string formatFrontTable(const nlohmann::json& front, const FrontTableOptions& opt) {
+  std::ostringstream os;
+  const size_t k = front.at("table").at("outputs").size();
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s %6s  %s\n", "#", "cost", "disc",
+                "error", "rmse", "max_abs", "lost", "expression");
+  os << buf;
+  const auto& members = front.at("members");
+  for (size_t i = 0; i < members.size(); ++i) {
+    const auto& m = members[i];
+    // The formula as statements; a member whose program does not decode keeps its stored text.
+    std::vector<FormulaStatement> st;
+    if (auto f = memberFormulaStatements(front, i)) {
+      st = f->statements;
+    } else {
+      for (size_t o = 0; o < m.at("outputs").size(); ++o)
+        st.push_back({m["outputs"][o].value("name", ""), m["outputs"][o].value("expression", ""),
+                      static_cast<int>(o)});
+    }
+    std::string lost = "-";
+    if (m.contains("cancellation") && m["cancellation"].is_object()) {
+      const double bits = getNum(m["cancellation"], "bits_lost");
+      const bool flag =
+          opt.cancel_bits ? bits > *opt.cancel_bits : m["cancellation"].value("flagged", false);
+      std::snprintf(buf, sizeof(buf), "%.1f%s", bits, flag ? "!" : "");
+      lost = buf;
+    }
+    auto metrics = [&](int o, bool first) {
+      const bool has = o >= 0 && static_cast<size_t>(o) < m.at("outputs").size();
+      const auto f = has ? m["outputs"][o].at("float32") : nlohmann::json::object();
+      char rm[32] = "", mx[32] = "";
+      if (has) {
+        std::snprintf(rm, sizeof rm, "%.6g", getNum(f, "rmse"));
+        std::snprintf(mx, sizeof mx, "%.6g", getNum(f, "max_abs"));
+      }
+      if (first)
+        std::snprintf(buf, sizeof(buf), "%4zu %8.4g %5.3g %12.6g %12s %12s %6s  ",
+                      m.at("index").get<size_t>(), getNum(m, "cost"), getNum(m, "discontinuity"),
+                      getNum(m, "error"), rm, mx, lost.c_str());
+      else
+        std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s %6s  ", "", "", "", "", rm, mx,
+                      "");
+      return std::string(buf);
+    };
+    if (k == 1) {
+      // One line: temporaries, then the bare expression of the output.
+      std::string text;
+      for (const auto& s : st)
+        text += (text.empty() ? "" : "; ") + (s.output >= 0 ? s.expr : s.name + " = " + s.expr);
+      os << metrics(0, true) << text << "\n";
+      continue;
+    }
+    // Several outputs: one statement per line, each output's metrics beside its own line.
+    for (size_t j = 0; j < st.size(); ++j)
+      os << metrics(st[j].output, j == 0) << st[j].name << " = " << st[j].expr << "\n";
   }
   return os.str();
+}
+
+Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
+                                   const std::filesystem::path& front_path,
+                                   const std::string& data_override) {
+  if (!front.contains("config") || !front["config"].is_object())
+    return Status::error("/config: the front records no run config");
+  if (!data_override.empty()) {
+    nlohmann::json c = front["config"];
+    c["data"].erase("scene");
+    c["data"].erase("cache_dir");
+    c["data"]["path"] = std::filesystem::absolute(data_override).string();
+    auto cfg = parseRunConfig(c, ".");
+    if (!cfg) return Status::error("/config: " + cfg.error());
+    return cfg;
+  }
+  const auto& data = front["config"].value("data", nlohmann::json::object());
+  const std::string rel = data.value("path", data.value("scene", std::string()));
+  std::vector<std::filesystem::path> bases;
+  if (front.contains("config_dir") && front["config_dir"].is_string() &&
+      !front["config_dir"].get<std::string>().empty())
+    bases.emplace_back(front["config_dir"].get<std::string>());
+  auto dir = front_path.parent_path();
+  bases.push_back(dir.empty() ? std::filesystem::path(".") : dir);
+  std::string tried;
+  for (const auto& b : bases) {
+    std::error_code ec;
+    const auto p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : b / rel;
+    if (rel.empty() || !std::filesystem::exists(p, ec)) {
+      tried += (tried.empty() ? "" : ", ") + p.string();
+      continue;
+    }
+    auto cfg = parseRunConfig(front["config"], b);
+    if (!cfg) return Status::error("/config: " + cfg.error());
+    return cfg;
+  }
+  return Status::error("/config/data: the run's table was not found (looked for " + tried +
+                       "); give it with --data");
+}
+
+Expected<nlohmann::json> snapFrontMember(const nlohmann::json& front, size_t index,
+                                         const RunConfig& cfg, const Table& t,
+                                         const SnapOptions& o) {
+  auto prog = memberProgram(front, index);
+  if (!prog)
+    return Status::error("/members/" + std::to_string(index) + "/program: " + prog.error());
+  const auto outs = names(front.at("table").at("outputs"));
+  const auto ins = names(front.at("table").at("inputs"));
+  if (t.output_names != outs || t.input_names != ins)
+    return Status::error("table: its columns do not match the front's /table/inputs and outputs");
+  ErrorConfig ec = cfg.errorConfig(t.output_names);
+  ec.linear_scaling = false;  // a member's program already applies its scales
+  const Dataset ds(t, cfg.eval.block_size);
+  Scorer s(ds, ec, cfg.eval.block_size);
+  SnapOptions so = o;  // changes below float32 rounding of the targets count as none
+  so.abs_floor = std::max(so.abs_floor, float32ErrorFloor(ec, t));
+  const auto r = snapConstants(
+      *prog, [&](const Program& p) { return s.error(p); }, so);
+  FrontEntry e;
+  e.program = r.program;
+  const CostModel cost = cfg.costModel();
+  DiscontinuityModel disc = cfg.discontinuityModel();
+  const auto domain = tableDomain(t);
+  disc.domain = domain;
+  e.obj.error = r.error_after;
+  e.obj.cost = cost.programCost(e.program) + cost.transformCost(ec.transforms);
+  e.obj.discontinuity = disc.programDiscontinuity(e.program);
+  e.metrics = s.metrics(e.program);
+  e.metrics_ref = referenceMetrics(e.program, t, ec);
+  if (!ec.channels.empty()) {
+    e.channel_metrics = s.channelMetrics(e.program);
+    e.channel_metrics_ref = referenceChannelMetrics(e.program, t, ec);
+  }
+  for (int c = 0; c < kNumCostTargets; ++c) {
+    const CostModel m = CostModel::preset(static_cast<CostTarget>(c));
+    e.cost_by_target[c] = m.programCost(e.program) + m.transformCost(ec.transforms);
+  }
+  const Dag d = formulaDag(e.program, static_cast<int>(ins.size()), domain);
+  e.infix = printOutputs(d, ins);
+  e.formula = printFormula(d, ins, outs).text();
+  e.cancellation = cancellation(d, t, ec.transforms);
+  auto j = memberToJson(index, e, t, ec);
+  j["snap"] = {{"constants", r.snapped}, {"error_before", num(r.error_before)}};
+  return j;
 }
 
 }  // namespace lgp

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 
+#include "lgp/core/formula.hpp"
 #include "lgp/core/variation.hpp"
 #include "lgp/search/differential_evolution.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
@@ -62,6 +63,8 @@ Search::Search(RunConfig cfg, Table table)
       archive_(cfg_.search.archive) {
   transform_cost_ = cost_.transformCost(err_cfg_.transforms);
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
+  domain_ = tableDomain(table_);
+  disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
   threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
   scorers_.resize(threads_);
   fitters_.resize(threads_);
@@ -163,11 +166,14 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
       ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
     const double e = s.error(ind.program);
     ++evals;
-    if (std::isfinite(e) && e <= ind.obj.error)
+    if (std::isfinite(e) && e <= ind.obj.error) {
       ind.obj.error = e;
-    else
+      // Constants move the intervals, so whether a piecewise op switches may change.
+      ind.obj.discontinuity = disc_.programDiscontinuity(ind.program, s.bound().effective);
+    } else {
       for (size_t k = 0; k < slots.size(); ++k)
         ind.program.constants[slots[k]] = static_cast<float>(x0[k]);
+    }
   }
 }
 
@@ -646,8 +652,56 @@ void summarizeArchive(SearchProgress& p, const std::vector<ArchiveMember>& membe
   }
 }
 
+std::optional<Program> Search::snappedTwin(Scorer& s, const Program& p) const {
+  SnapOptions o = snap_;  // changes below float32 rounding of the targets count as none
+  o.abs_floor = std::max(o.abs_floor, float32ErrorFloor(err_cfg_, table_));
+  const auto snapped = snapConstants(
+      p, [&](const Program& q) { return score(s, q).error; }, o);
+  // Simplified on the domain (exact there) and relinearised: snapping often leaves x*1, x + 0
+  // or a constant sub-expression behind, which the simplifier removes.
+  Program twin = snapped.program;
+  auto lin = toProgram(formulaDag(twin, shape_.num_inputs, domain_));
+  if (lin) {
+    auto fitted = fitToShape(lin->program, shape_);
+    if (fitted) twin = std::move(*fitted);
+  }
+  if (pruneIntrons(twin) == pruneIntrons(p)) return std::nullopt;
+  return twin;
+}
+
 std::vector<FrontEntry> Search::front() const {
-  const auto members = archive_.sorted();
+  std::vector<ArchiveMember> members = archive_.sorted();
+  if (snap_twins_ && !members.empty()) {
+    // The post-run pass on a copy of the archive (members in sorted order, so the result
+    // depends only on the archive).
+    const int n = static_cast<int>(members.size());
+    std::vector<std::optional<Program>> twins(n);
+    std::vector<Objectives> objs(n);
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
+    for (int i = 0; i < n; ++i) {
+      Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
+      twins[i] = snappedTwin(s, members[i].program);
+      if (twins[i]) objs[i] = score(s, *twins[i]);
+    }
+    // A twin that is no worse in cost and discontinuity and whose error differs from its
+    // original's by float32 rounding alone (an exact formula scores a few ulp off a
+    // noise-fitted one) replaces it; every other twin is offered to the archive.
+    const double floor = float32ErrorFloor(err_cfg_, table_);
+    Archive a(cfg_.search.archive);
+    std::vector<uint8_t> replaced(n, 0);
+    for (int i = 0; i < n; ++i) {
+      const Objectives& o = members[i].obj;
+      replaced[i] = twins[i] && objs[i].error <= o.error + floor && objs[i].cost <= o.cost &&
+                    objs[i].discontinuity <= o.discontinuity;
+      if (replaced[i])
+        a.insert(*twins[i], objs[i], true);
+      else
+        a.insert(members[i].program, o, members[i].refined);
+    }
+    for (int i = 0; i < n; ++i)
+      if (twins[i] && !replaced[i]) a.insert(*twins[i], objs[i], true);
+    members = a.sorted();
+  }
   std::vector<FrontEntry> out(members.size());
   std::array<CostModel, kNumCostTargets> models;
   for (int t = 0; t < kNumCostTargets; ++t)
@@ -668,7 +722,10 @@ std::vector<FrontEntry> Search::front() const {
     for (int t = 0; t < kNumCostTargets; ++t)
       e.cost_by_target[t] =
           models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
-    e.infix = toInfix(e.program, table_.input_names);
+    const Dag d = formulaDag(e.program, shape_.num_inputs, domain_);
+    e.infix = printOutputs(d, table_.input_names);
+    e.formula = printFormula(d, table_.input_names, table_.output_names).text();
+    e.cancellation = cancellation(d, table_, err_cfg_.transforms);
   }
   return out;
 }

@@ -3,7 +3,8 @@
 // measured agreement with the interpreter.
 //
 // Pipeline: Program -> buildDag (effective opcodes, duplicates merged) -> simplify (constant
-// folding with the interpreter's semantics, exact rewrites, proven pow rewrites) -> render:
+// folding with the interpreter's semantics, exact and domain-proven rewrites, proven pow
+// rewrites; the same DAG the front prints, lgp/core/formula.hpp) -> render:
 // a node used more than once becomes a named local `tN`, single-use sub-expressions are
 // inlined, constants print as shortest round-trip literals, protected operators call small
 // `lgp_*` helpers emitted in front of the function (each behind an #ifndef guard, so several
@@ -38,8 +39,12 @@ struct EmitOptions {
   // Emit the raw operator instead of the protected helper wherever interval analysis on the
   // table's domain proves the protected branch is never taken (a comment lists them).
   bool fast = false;
-  // pow(x, 2) -> x*x and friends where x >= 0 is proven (dag.hpp); off = only exact rewrites.
+  // pow(x, 2) -> x*x and friends where x >= 0 is proven (expr.hpp); off = only exact rewrites.
   bool pow_rewrites = true;
+  // Remove piecewise operators whose branch never switches on the domain (abs of a value that
+  // keeps its sign, saturate of [0, 1], a dominated min/max operand, a constant select): the
+  // code then equals the interpreter on the domain only (expr.hpp).
+  bool domain_rewrites = true;
   // C++ float only: emit the interpreter's own exp2/log2/sin/cos polynomials (vecmath.hpp)
   // instead of <cmath>, making the function bit-identical to the float32 interpreter.
   bool exact_math = false;
@@ -72,6 +77,7 @@ struct Emitted {
   std::vector<std::string> helpers;            // names of the helpers used, e.g. "lgp_div"
   std::vector<std::string> raw_ops;            // ops emitted raw under `fast`
   Dag dag;                                     // the simplified DAG that was rendered
+  std::string formula;                         // printFormula of `dag` (the header's Formula:)
   std::array<double, kNumCostTargets> cost{};  // per target, inverse transforms included
   int piecewise = 0;
 };

@@ -34,8 +34,11 @@ struct ScoreOptions {
 };
 
 // Scores a program on `t`. The result has the fields of a front member: "error", "cost",
-// "discontinuity", "cost_by_target", "outputs" [{"name", "expression", "transform",
-// "float32": {...}, "double": {...}}], "program", plus "opcodes" and "piecewise".
+// "discontinuity" (counted on the table's domain unless `o.discontinuity` has one),
+// "cost_by_target", "formula", "cancellation", "outputs" [{"name", "expression",
+// "transform", "float32": {...}, "double": {...}}], "program", plus "opcodes" and
+// "piecewise". Formula and expressions come from the front printer (core/formula.hpp) on the
+// table's domain; `infix` is only used where it has no text.
 Expected<nlohmann::json> scoreProgram(const Program& p, const Table& t, const ScoreOptions& o,
                                       const std::vector<std::string>& infix);
 

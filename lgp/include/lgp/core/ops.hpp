@@ -35,60 +35,73 @@ inline constexpr float kMinPos = 1.17549435e-38f;  // FLT_MIN: floor of log/rsqr
 inline constexpr float kExpClamp = 126.0f;         // |exponent| limit of exp2/exp/pow
 inline constexpr int kMaxArity = 4;
 
-// Cost targets. Costs are in "FMA-equivalent issue slots" of the target; see
-// the vendors' ISA and scheduling documents named per target below. gpu-generic: FMA-class 1, special function 4, source
-// modifiers (abs, neg, saturate) free. nvidia: SFU (MUFU) ops 4 (16-32 vs 64-128 results/clk/SM),
-// sqrt = rsq+rcp, div = rcp+mul. gcn: quarter-rate transcendentals 4 (SISchedule.td), native
-// v_sqrt, sin/cos need a 1/2pi pre-multiply. rdna: GFX10 latency ratio WriteTrans32/Write32Bit
-// = 10/5, so transcendentals 2. cpu: AVX2 reciprocal throughput relative to an FMA, with the
-// vectorised polynomial libm for exp/log/sin/cos.
+// Cost targets. Costs are in "FMA-equivalent issue slots" of the target; docs/cost-models.md
+// derives every entry and cites its sources (NVIDIA's CUDA C++ Programming Guide and PTX ISA,
+// AMD's GCN and RDNA ISA guides, LLVM's AMDGPU scheduling model, x86 instruction tables).
+// gpu-generic: FMA-class 1, special function 4, source modifiers (abs, neg, saturate) free.
+// nvidia: SFU (MUFU) ops 4 (16-32 vs 64-128 results/clk/SM), sqrt = rsq+rcp, div = rcp+mul.
+// gcn: quarter-rate transcendentals 4, native v_sqrt, sin/cos need a 1/2pi pre-multiply.
+// rdna: GFX10 scheduling latency of transcendentals 10 against 5 for other VALU ops, so 2.
+// cpu: AVX2 reciprocal throughput relative to an FMA, with the vectorised polynomial libm
+// (eval/vecmath.hpp) for exp/log/sin/cos.
 enum class CostTarget : uint8_t { GpuGeneric, Nvidia, Gcn, Rdna, Cpu };
 inline constexpr int kNumCostTargets = 5;
 inline constexpr std::array<std::string_view, kNumCostTargets> kCostTargetNames = {
     "gpu-generic", "nvidia", "gcn", "rdna", "cpu"};
 
-// X(Enum, name, arity, piecewise, {generic, nvidia, gcn, rdna, cpu}, infix, hlsl, glsl, cpp)
-// Templates use {0}..{3} for operands. `infix` is the readable form printed in fronts and
-// accepted by the parser; it names protected functions by their op name.
+// X(Enum, name, arity, piecewise, guarded, {generic, nvidia, gcn, rdna, cpu}, infix, hlsl, glsl,
+//   cpp)
+// piecewise: the operator has a branch (counts towards discontinuity unless the interval
+// analysis proves the branch never switches on the table's domain). guarded: the operator has a
+// protected branch (guard, floor, clamp, or saturate's NaN -> 0) that the emitters reproduce
+// with a helper unless it is proven unreachable. Templates use {0}..{3} for operands. `infix`
+// is the function-call spelling the parser accepts (the formula printer, core/formula.hpp,
+// prints arithmetic with operators instead); it names protected functions by their op name.
 #define LGP_OPS(X)                                                                                \
-  X(Add, "add", 2, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",           \
+  X(Add, "add", 2, false, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",    \
     "({0} + {1})")                                                                                \
-  X(Sub, "sub", 2, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",           \
+  X(Sub, "sub", 2, false, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",    \
     "({0} - {1})")                                                                                \
-  X(Mul, "mul", 2, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",           \
+  X(Mul, "mul", 2, false, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",    \
     "({0} * {1})")                                                                                \
-  X(Div, "div", 2, false, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",           \
+  X(Div, "div", 2, false, true, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",     \
     "({0} / {1})")                                                                                \
-  X(Mad, "mad", 3, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",            \
+  X(Mad, "mad", 3, false, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",     \
     "({0} * {1} + {2})", "({0} * {1} + {2})")                                                     \
-  X(Neg, "neg", 1, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")                \
-  X(Rcp, "rcp", 1, false, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})", "(1.0f / {0})") \
-  X(Sqrt, "sqrt", 1, false, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",               \
+  X(Neg, "neg", 1, false, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")         \
+  X(Rcp, "rcp", 1, false, true, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})",           \
+    "(1.0f / {0})")                                                                               \
+  X(Sqrt, "sqrt", 1, false, true, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",         \
     "std::sqrt({0})")                                                                             \
-  X(Rsqrt, "rsqrt", 1, false, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})",    \
-    "(1.0f / std::sqrt({0}))")                                                                    \
-  X(Square, "square", 1, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})", "({0} * {0})",     \
-    "({0} * {0})")                                                                                \
-  X(Exp2, "exp2", 1, false, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",               \
+  X(Rsqrt, "rsqrt", 1, false, true, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})",                  \
+    "inversesqrt({0})", "(1.0f / std::sqrt({0}))")                                                \
+  X(Square, "square", 1, false, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})",             \
+    "({0} * {0})", "({0} * {0})")                                                                 \
+  X(Exp2, "exp2", 1, false, true, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",         \
     "std::exp2({0})")                                                                             \
-  X(Log2, "log2", 1, false, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",               \
+  X(Log2, "log2", 1, false, true, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",         \
     "std::log2({0})")                                                                             \
-  X(Exp, "exp", 1, false, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})")   \
-  X(Log, "log", 1, false, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})", "std::log({0})")   \
-  X(Pow, "pow", 2, false, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})", "pow({0}, {1})",    \
-    "std::pow({0}, {1})")                                                                         \
-  X(Sin, "sin", 1, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})", "std::sin({0})")  \
-  X(Cos, "cos", 1, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})", "std::cos({0})")  \
-  X(Min, "min", 2, true, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})", "min({0}, {1})",      \
-    "std::min({0}, {1})")                                                                         \
-  X(Max, "max", 2, true, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})", "max({0}, {1})",      \
-    "std::max({0}, {1})")                                                                         \
-  X(Abs, "abs", 1, true, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})", "std::fabs({0})")   \
-  X(Saturate, "saturate", 1, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",             \
+  X(Exp, "exp", 1, false, true, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})",              \
+    "std::exp({0})")                                                                              \
+  X(Log, "log", 1, false, true, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})",              \
+    "std::log({0})")                                                                              \
+  X(Pow, "pow", 2, false, true, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})",               \
+    "pow({0}, {1})", "std::pow({0}, {1})")                                                        \
+  X(Sin, "sin", 1, false, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})",            \
+    "std::sin({0})")                                                                              \
+  X(Cos, "cos", 1, false, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})",            \
+    "std::cos({0})")                                                                              \
+  X(Min, "min", 2, true, false, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})",                \
+    "min({0}, {1})", "std::min({0}, {1})")                                                        \
+  X(Max, "max", 2, true, false, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})",                \
+    "max({0}, {1})", "std::max({0}, {1})")                                                        \
+  X(Abs, "abs", 1, true, false, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})",              \
+    "std::fabs({0})")                                                                             \
+  X(Saturate, "saturate", 1, true, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",       \
     "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                        \
-  X(Lerp, "lerp", 3, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})",        \
+  X(Lerp, "lerp", 3, false, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", \
     "mix({0}, {1}, {2})", "({0} + ({1} - {0}) * {2})")                                            \
-  X(Select, "select", 4, true, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",                     \
+  X(Select, "select", 4, true, false, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",              \
     "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})")
 
 enum class Op : uint8_t {
@@ -108,6 +121,7 @@ struct OpInfo {
   std::string_view name;  // config / JSON / CLI spelling
   int arity;
   bool piecewise;  // counts towards the discontinuity objective by default
+  bool guarded;    // has a protected branch (see the semantics at the top)
   std::array<double, kNumCostTargets> cost;
   std::string_view infix;  // readable form, {0}..{3} placeholders
   std::string_view hlsl;   // raw (unprotected) spelling per language
@@ -118,8 +132,8 @@ struct OpInfo {
 namespace detail {
 #define LGP_X_COST(a, b, c, d, e) \
   { a, b, c, d, e }
-#define LGP_X_INFO(E, NAME, AR, PW, COST, INF, HL, GL, CP) \
-  OpInfo{Op::E, NAME, AR, PW, LGP_X_COST COST, INF, HL, GL, CP},
+#define LGP_X_INFO(E, NAME, AR, PW, GD, COST, INF, HL, GL, CP) \
+  OpInfo{Op::E, NAME, AR, PW, GD, LGP_X_COST COST, INF, HL, GL, CP},
 inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
 #undef LGP_X_INFO
 #undef LGP_X_COST

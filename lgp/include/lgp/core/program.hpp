@@ -92,9 +92,11 @@ std::vector<int> effectiveConstants(const Program& p);
 // A copy holding only the effective opcodes, with operands renumbered.
 Program pruneIntrons(const Program& p);
 
-// Readable infix, one expression per output, over the given input names. Sub-expressions used
-// more than once (and not trivially short) are bound first as `tN = ...;` so the text stays
-// linear in the program size. Constants print as shortest round-trip float literals.
+// Readable infix, one self-contained text per output, over the given input names: the
+// program simplified with the rewrites that hold for every input (no domain, no pow rewrites)
+// and printed by the formula printer (core/formula.hpp), so each text parses back into a
+// program that the interpreter evaluates bit-identically. For fronts, printFormula /
+// programFormula with the table's domain is the text to show.
 std::vector<std::string> toInfix(const Program& p, const std::vector<std::string>& input_names);
 
 // Shortest decimal string that reads back as the same float.

@@ -5,7 +5,8 @@
 //                 back through the inverse transform and the error is measured on the
 //                 original. Several outputs combine by mean (default) or max.
 //  cost           sum over effective opcodes of the per-operator cost of a target model.
-//  discontinuity  weighted count of piecewise operators among effective opcodes.
+//  discontinuity  weighted count of piecewise operators among effective opcodes whose branch
+//                 may switch on the table's domain.
 // A program whose output is NaN or Inf on any row gets error = +inf: it is the worst and
 // never enters a front.
 #pragma once
@@ -18,6 +19,7 @@
 #include <string_view>
 #include <vector>
 
+#include "lgp/core/interval.hpp"
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/eval/interpreter.hpp"
@@ -53,8 +55,13 @@ struct CostModel {
   double transformCost(const std::vector<TargetTransform>& t) const;
 };
 
+// Discontinuity: the weighted count of effective piecewise operators whose branch may switch
+// on `domain` (interval.hpp: abs of a value that keeps its sign, saturate of a value inside
+// [0, 1], min/max with a dominated operand and a select whose comparison never changes count
+// nothing). A pure function of the program and the domain, so the search stays deterministic.
 struct DiscontinuityModel {
   std::array<double, kNumOps> weight{};  // default: 1 for piecewise ops, 0 otherwise
+  std::vector<Interval> domain;          // per input (tableDomain); empty: every one counts
   static DiscontinuityModel defaults();
   double programDiscontinuity(const Program& p) const;
   double programDiscontinuity(const Program& p, const std::vector<int>& effective) const;
@@ -199,6 +206,12 @@ class Scorer {
 Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales);
 // Cost of those opcodes.
 double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales);
+
+// The error a float32 evaluation of the exact formula reaches on `t` by rounding alone:
+// 2^-24 times the targets' RMS (rmse), mean |y| (mae) or max |y| (max_abs), or 2^-24
+// (mean_rel), per output, combined like the error (mean or max). Constant snapping
+// (core/snap.hpp) treats error changes below it as none.
+double float32ErrorFloor(const ErrorConfig& cfg, const Table& t);
 
 // Metrics in double precision via the reference evaluator (the "double check path").
 std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& original,

@@ -3,6 +3,7 @@
 // front.json ("lgp-front/1"):
 // { "format": "lgp-front/1",
 //   "config": {...},                    // the resolved RunConfig
+//   "config_dir": "/abs/dir",           // where the config was (its data path is relative)
 //   "table": {"inputs": [...], "outputs": [...], "rows": N, "domain": {"mu": [lo, hi], ...},
 //             "meta": {...}},
 //   "progress": {"generation": G, "evaluations": E, "elapsed_s": T, "stop_reason": "..."},
@@ -10,6 +11,8 @@
 //   "members": [
 //     { "index": 0, "error": e, "cost": c, "discontinuity": d,
 //       "cost_by_target": {"gpu-generic": c, "nvidia": ..., ...},
+//       "formula": "t0 = r^2; A = 1 - t0; B = exp2(-7*mu - 4*t0)",  // programFormula
+//       "cancellation": {"bits_lost": 2.1, "flagged": false},      // cancellation.hpp
 //       "outputs": [ {"name": "A", "expression": "...", "transform": "none",
 //                     "float32": {"rmse":..,"max_abs":..,"mae":..,"mean_rel":..,"r2":..},
 //                     "double":  {...}} ],
@@ -17,16 +20,21 @@
 //       "program": {"code": [...], "constants": [...], "outputs": [...]} } ],
 //   "error_channels": ["A", "B"],    // what "error" combines: channel names, or the outputs
 //   "references": [...] }           // formulas listed in the config, as given
+// "expression" is the output's formula on its own (its temporaries first); "formula" the whole
+// program. Both are the simplified DAG on the table's domain (core/formula.hpp).
 // front.csv: one row per member and output: index,output,error,cost,discontinuity,
-// rmse,max_abs,mae,mean_rel,r2,expression.
+// rmse,max_abs,mae,mean_rel,r2,bits_lost,expression,formula.
 #pragma once
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "lgp/core/formula.hpp"
+#include "lgp/core/snap.hpp"
 #include "lgp/core/status.hpp"
 #include "lgp/search/search.hpp"
 
@@ -51,7 +59,37 @@ nlohmann::json progressToJson(const SearchProgress& p);
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path);
 // A member's program, decoded against the shape recorded in the front.
 Expected<Program> memberProgram(const nlohmann::json& front, size_t index);
-// Plain-text table of a front (for `lgp front`).
-std::string formatFrontTable(const nlohmann::json& front);
+// The table's domain recorded in a front (/table/domain), one interval per /table/inputs
+// entry (the whole line where none is recorded).
+std::vector<Interval> frontDomain(const nlohmann::json& front);
+// A member's formula: printFormula of formulaDag(program) on the front's input and output
+// names and domain, recomputed from the program (so fronts written before the "formula" field
+// print the same way). This is the text for reports and pages; memberFormula joins it.
+Expected<Formula> memberFormulaStatements(const nlohmann::json& front, size_t index);
+Expected<std::string> memberFormula(const nlohmann::json& front, size_t index);
+
+struct FrontTableOptions {
+  // Flag threshold for the bits-lost column; unset: the member's own "flagged".
+  std::optional<double> cancel_bits;
+};
+// Plain-text table of a front (for `lgp front`): per member its cost, discontinuity, error,
+// the float32 rmse and max_abs per output, the bits lost to cancellation ("!" = flagged) and
+// the formula, one statement per line for several outputs.
+std::string formatFrontTable(const nlohmann::json& front, const FrontTableOptions& o = {});
+
+// The run config recorded in a front, with base_dir set so that its data path resolves:
+// /config_dir when the table is there, else the front file's directory. With `data` set, the
+// config reads that table file instead (path as given; columns as recorded). Errors say where
+// it looked.
+Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
+                                   const std::filesystem::path& front_path,
+                                   const std::string& data = "");
+// Member `index` with its constants snapped (snap.hpp) against `t` (the run's table) with the
+// front's error settings, re-scored: a member object like frontToJson's (error, cost,
+// discontinuity, metrics, formula, cancellation, program) plus "snap": {"constants": n,
+// "error_before": e0}. `cfg` is the run config (frontRunConfig).
+Expected<nlohmann::json> snapFrontMember(const nlohmann::json& front, size_t index,
+                                         const RunConfig& cfg, const Table& t,
+                                         const SnapOptions& o = {});
 
 }  // namespace lgp

@@ -33,14 +33,17 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "lgp/config/config.hpp"
+#include "lgp/core/cancellation.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/core/rng.hpp"
+#include "lgp/core/snap.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
@@ -82,7 +85,9 @@ struct FrontEntry {
   // Per error channel (objectives.channels; empty when the config has none).
   std::vector<OutputMetrics> channel_metrics, channel_metrics_ref;
   std::array<double, kNumCostTargets> cost_by_target{};
-  std::vector<std::string> infix;  // per output
+  std::vector<std::string> infix;  // per output, standalone (printOutputs on the domain)
+  std::string formula;             // the whole program (programFormula on the domain)
+  Cancellation cancellation;       // bits lost (cancellation.hpp)
 };
 
 class Search {
@@ -130,8 +135,18 @@ class Search {
   void run(const std::function<void(const SearchProgress&)>& on_progress = {});
 
   SearchProgress progress() const;
-  // The archive's non-dominated members, sorted by cost then error, with full metrics.
+  // The archive's non-dominated members, sorted by cost then error, with full metrics. The
+  // post-run pass: unless setSnapTwins(false), the snapped twin of every member (snap.hpp,
+  // then simplified on the table's domain and relinearised) goes to a copy of the archive
+  // first: it replaces its original when it is no worse in cost and discontinuity and its
+  // error is higher by float32 rounding at most (float32ErrorFloor), and is otherwise offered
+  // like any candidate, so a twin that is not dominated joins the front. The archive itself
+  // (and so checkpoints and resumes) is left as it was.
   std::vector<FrontEntry> front() const;
+  void setSnapTwins(bool on, SnapOptions o = {}) {
+    snap_twins_ = on;
+    snap_ = o;
+  }
   // The archive as it stands (unsorted, programs as searched).
   const std::vector<ArchiveMember>& archiveMembers() const { return archive_.members(); }
 
@@ -226,7 +241,12 @@ class Search {
   std::atomic<bool> stop_{false};
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
   std::vector<Program> seeds_;
-  std::string adopted_stop_;  // set by adopt()
+  std::string adopted_stop_;      // set by adopt()
+  std::vector<Interval> domain_;  // the table's (tableDomain)
+  bool snap_twins_ = true;
+  SnapOptions snap_;
+  // The snapped and simplified twin of an archive program, if it differs and fits the shape.
+  std::optional<Program> snappedTwin(Scorer& s, const Program& p) const;
 };
 
 // A copy of `p` that satisfies `shape`: constants padded with zeros to the shape's count and,

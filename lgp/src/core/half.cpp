@@ -1,11 +1,11 @@
 // binary16 rounding and the half-precision protected semantics (see half.hpp).
-#include "lgp/emit/half.hpp"
+#include "lgp/core/half.hpp"
 
 #include <bit>
 #include <cmath>
 #include <cstdint>
 
-namespace lgp::emit {
+namespace lgp {
 
 float roundToHalf(float x) {
   if (!std::isfinite(x)) return x;
@@ -90,4 +90,4 @@ float applyHalf(Op op, float a, float b, float c, float d) {
   return 0.0f;
 }
 
-}  // namespace lgp::emit
+}  // namespace lgp

@@ -1,0 +1,58 @@
+// How every JSON validator of the project (run config, scene, lgpd's daemon config, the
+// references of `lgp score`) names the value an error is about: a JSON Pointer (RFC 6901) and
+// the reason, "/search/islands/count: must be in [1, 4096] (got 0)". One helper, so that the
+// four agree on the root ("/"), on array indices and on which keys count as unknown.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <initializer_list>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+namespace lgp {
+
+// The pointer to member `key` (or element `index`) of the value at `parent` ("" = the whole
+// document). '~' and '/' in a key are written "~0" and "~1", so a path names one value.
+std::string jsonPath(std::string_view parent, std::string_view key);
+std::string jsonPath(std::string_view parent, size_t index);
+
+// "<path>: <why>", the whole document shown as "/".
+std::string jsonError(std::string_view path, std::string_view why);
+
+// One JSON object being read: remembers the keys that were asked for or declared, so that the
+// rest can be reported as unknown. Keeps a reference: the object must outlive the reader.
+class JsonObjectReader {
+ public:
+  JsonObjectReader(const nlohmann::json& object, std::string path);
+
+  bool isObject() const { return j_.is_object(); }
+  const std::string& path() const { return path_; }
+  std::string path(std::string_view key) const { return jsonPath(path_, key); }
+
+  // Whether the key is present; either way it counts as known from now on.
+  bool has(std::string_view key);
+  // The member (which must be present); it counts as known.
+  const nlohmann::json& at(std::string_view key);
+  // Keys that are valid here although nobody reads them (yet).
+  void allow(std::initializer_list<std::string_view> keys);
+  template <class Keys>
+  void allowAll(const Keys& keys) {
+    for (const auto& k : keys) known_.emplace(k);
+  }
+
+  // The path of the first key, in the object's order, that is not known; none when all are
+  // (or when the value is not an object).
+  std::optional<std::string> unknownKey() const;
+
+ private:
+  const nlohmann::json& j_;
+  std::string path_;
+  std::set<std::string, std::less<>> known_;
+};
+
+}  // namespace lgp
