@@ -1,86 +1,62 @@
-// Minimal SVG plots: people look at the data before they fit it.
+// `lgp data --plot`: people look at the data before they fit it. A table's heatmaps and slices,
+// drawn by the project's one plotter (lgp/io/svg_plot.hpp).
 #include <algorithm>
-#include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "lgp/datasets/generate.hpp"
+#include "lgp/io/svg_plot.hpp"
 
 namespace lgp::datasets {
 
 namespace {
 namespace fs = std::filesystem;
 
-// Viridis, 5 stops, linearly interpolated.
-std::string color(double t) {
-  static const double stops[5][3] = {
-      {68, 1, 84}, {59, 82, 139}, {33, 145, 140}, {94, 201, 98}, {253, 231, 37}};
-  t = std::clamp(std::isfinite(t) ? t : 0.0, 0.0, 1.0) * 4.0;
-  const int i = std::min(3, static_cast<int>(t));
-  const double f = t - i;
-  char b[8];
-  std::snprintf(b, sizeof b, "#%02x%02x%02x",
-                static_cast<int>(stops[i][0] + f * (stops[i + 1][0] - stops[i][0])),
-                static_cast<int>(stops[i][1] + f * (stops[i + 1][1] - stops[i][1])),
-                static_cast<int>(stops[i][2] + f * (stops[i + 1][2] - stops[i][2])));
-  return b;
-}
-
 std::string num(double v) {
-  std::ostringstream s;
-  s.precision(4);
-  s << v;
-  return s.str();
+  return plot::formatNumber(v, 4);
 }
 
-const char* kLineColors[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd"};
-
-// One panel of lines y(x) for several curves, at (ox, oy), size w x h.
-void linePanel(std::ostringstream& s, double ox, double oy, double w, double h,
-               const std::vector<double>& x, const std::vector<std::vector<double>>& ys,
-               const std::vector<std::string>& labels, const std::string& xname,
-               const std::string& yname) {
-  double xmin = *std::min_element(x.begin(), x.end()), xmax = *std::max_element(x.begin(), x.end());
-  double ymin = 1e300, ymax = -1e300;
-  for (const auto& y : ys)
-    for (double v : y) ymin = std::min(ymin, v), ymax = std::max(ymax, v);
-  if (xmax <= xmin) xmax = xmin + 1;
-  if (ymax <= ymin) ymax = ymin + 1e-12;
-  auto X = [&](double v) { return ox + w * (v - xmin) / (xmax - xmin); };
-  auto Y = [&](double v) { return oy + h - h * (v - ymin) / (ymax - ymin); };
-  s << "<rect x='" << ox << "' y='" << oy << "' width='" << w << "' height='" << h
-    << "' fill='none' stroke='#888'/>\n";
-  s << "<text x='" << ox + w / 2 << "' y='" << oy + h + 28 << "' text-anchor='middle'>" << xname
-    << "</text>\n";
-  s << "<text x='" << ox << "' y='" << oy + h + 14 << "' font-size='10'>" << num(xmin)
-    << "</text><text x='" << ox + w << "' y='" << oy + h + 14
-    << "' font-size='10' text-anchor='end'>" << num(xmax) << "</text>\n";
-  s << "<text x='" << ox - 4 << "' y='" << oy + 10 << "' font-size='10' text-anchor='end'>"
-    << num(ymax) << "</text><text x='" << ox - 4 << "' y='" << oy + h
-    << "' font-size='10' text-anchor='end'>" << num(ymin) << "</text>\n";
-  s << "<text x='" << ox << "' y='" << oy - 6 << "'>" << yname << "</text>\n";
-  for (size_t c = 0; c < ys.size(); ++c) {
-    s << "<polyline fill='none' stroke-width='1.5' stroke='" << kLineColors[c % 5] << "' points='";
-    for (size_t i = 0; i < x.size(); ++i) s << X(x[i]) << "," << Y(ys[c][i]) << " ";
-    s << "'/>\n";
-    s << "<text x='" << ox + w + 6 << "' y='" << oy + 14 + 14 * c << "' font-size='10' fill='"
-      << kLineColors[c % 5] << "'>" << labels[c] << "</text>\n";
-  }
-}
-
+// Up to 5 indices spread evenly over [0, n), both ends included.
 std::vector<size_t> picks(size_t n) {
   std::vector<size_t> p;
   const size_t k = std::min<size_t>(5, n);
   for (size_t i = 0; i < k; ++i) p.push_back(k == 1 ? 0 : i * (n - 1) / (k - 1));
   return p;
 }
+
+// The output against one input (`x` of length nx), one line per picked value of the other
+// input (`other`); `at(i, j)` is the output at x[i] and other[j].
+template <class At>
+plot::Plot slicePlot(const std::string& output, const std::string& xname,
+                     const std::vector<double>& x, const std::string& oname,
+                     const std::vector<double>& other, At at) {
+  plot::Plot p;
+  p.axes.title = output + " against " + xname;
+  p.axes.xlabel = xname;
+  p.axes.ylabel = output;
+  p.axes.width = 450;
+  p.axes.height = 380;
+  p.axes.generator = "lgp data";
+  for (size_t j : picks(other.size())) {
+    plot::Series s;
+    s.name = oname + "=" + num(other[j]);
+    s.style = plot::Series::Style::Line;
+    s.x = x;
+    for (size_t i = 0; i < x.size(); ++i) s.y.push_back(at(i, j));
+    p.series.push_back(std::move(s));
+  }
+  return p;
+}
+
+Status writeFile(const fs::path& f, const std::string& text, std::vector<fs::path>& files) {
+  std::string err;
+  if (!plot::writeTextFile(f.string(), text, &err)) return Status::error(err);
+  files.push_back(f);
+  return Status::ok();
+}
 }  // namespace
 
 Expected<std::vector<fs::path>> writePlots(const GeneratedTable& g, const fs::path& dir,
                                            const std::string& stem) {
   std::vector<fs::path> files;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
   const Table& t = g.table;
   if (t.inputs.size() != 2) return Status::error("plots need a two-input table");
   // Recover the grid axes from the rows (first input fastest).
@@ -92,7 +68,6 @@ Expected<std::vector<fs::path>> writePlots(const GeneratedTable& g, const fs::pa
   const size_t n0 = a0.size();
   if (n0 == 0 || t.rows() % n0) return Status::error("plots need a full grid");
   for (size_t row = 0; row < t.rows(); row += n0) a1.push_back(t.inputs[1][row]);
-  const size_t n1 = a1.size();
   const std::string& x0 = t.input_names[0];
   const std::string& x1 = t.input_names[1];
   for (size_t k = 0; k < t.outputs.size(); ++k) {
@@ -100,63 +75,25 @@ Expected<std::vector<fs::path>> writePlots(const GeneratedTable& g, const fs::pa
     const std::string& name = t.output_names[k];
     const double lo = *std::min_element(y.begin(), y.end());
     const double hi = *std::max_element(y.begin(), y.end());
-    {  // heatmap
-      const double W = 420, H = 420, ox = 70, oy = 40;
-      std::ostringstream s;
-      s << "<svg xmlns='http://www.w3.org/2000/svg' width='600' height='520' "
-           "font-family='sans-serif' font-size='12'>\n<!-- generated by lgp data -->\n";
-      s << "<text x='" << ox << "' y='24' font-size='14'>" << name << "(" << x0 << ", " << x1
-        << ")  min " << num(lo) << "  max " << num(hi) << "</text>\n";
-      const double cw = W / n0, ch = H / n1;
-      for (size_t j = 0; j < n1; ++j)
-        for (size_t i = 0; i < n0; ++i) {
-          const double v = y[j * n0 + i];
-          s << "<rect x='" << ox + i * cw << "' y='" << oy + H - (j + 1) * ch << "' width='"
-            << cw + 0.3 << "' height='" << ch + 0.3 << "' fill='"
-            << color(hi > lo ? (v - lo) / (hi - lo) : 0.5) << "'/>\n";
-        }
-      s << "<text x='" << ox + W / 2 << "' y='" << oy + H + 32 << "' text-anchor='middle'>" << x0
-        << " (" << num(a0.front()) << " .. " << num(a0.back()) << ")</text>\n";
-      s << "<text x='20' y='" << oy + H / 2 << "' transform='rotate(-90 20," << oy + H / 2
-        << ")' text-anchor='middle'>" << x1 << " (" << num(a1.front()) << " .. " << num(a1.back())
-        << ")</text>\n";
-      for (int c = 0; c < 50; ++c)
-        s << "<rect x='" << ox + W + 20 << "' y='" << oy + H - (c + 1) * H / 50
-          << "' width='20' height='" << H / 50 + 0.3 << "' fill='" << color(c / 49.0) << "'/>\n";
-      s << "<text x='" << ox + W + 44 << "' y='" << oy + 10 << "' font-size='10'>" << num(hi)
-        << "</text><text x='" << ox + W + 44 << "' y='" << oy + H << "' font-size='10'>" << num(lo)
-        << "</text>\n</svg>\n";
-      const fs::path f = dir / (stem + "_" + name + "_heatmap.svg");
-      std::ofstream(f) << s.str();
-      files.push_back(f);
-    }
-    {  // slices: y against x0 at a few x1, and against x1 at a few x0
-      std::ostringstream s;
-      s << "<svg xmlns='http://www.w3.org/2000/svg' width='900' height='380' "
-           "font-family='sans-serif' font-size='12'>\n<!-- generated by lgp data -->\n";
-      std::vector<std::vector<double>> ys;
-      std::vector<std::string> labels;
-      for (size_t j : picks(n1)) {
-        std::vector<double> line(n0);
-        for (size_t i = 0; i < n0; ++i) line[i] = y[j * n0 + i];
-        ys.push_back(line);
-        labels.push_back(x1 + "=" + num(a1[j]));
-      }
-      linePanel(s, 60, 30, 300, 300, a0, ys, labels, x0, name);
-      ys.clear();
-      labels.clear();
-      for (size_t i : picks(n0)) {
-        std::vector<double> line(n1);
-        for (size_t j = 0; j < n1; ++j) line[j] = y[j * n0 + i];
-        ys.push_back(line);
-        labels.push_back(x0 + "=" + num(a0[i]));
-      }
-      linePanel(s, 500, 30, 300, 300, a1, ys, labels, x1, name);
-      s << "</svg>\n";
-      const fs::path f = dir / (stem + "_" + name + "_slices.svg");
-      std::ofstream(f) << s.str();
-      files.push_back(f);
-    }
+    plot::Heatmap h;
+    h.title = name + "(" + x0 + ", " + x1 + ")  min " + num(lo) + "  max " + num(hi);
+    h.xlabel = x0;
+    h.ylabel = x1;
+    h.value_label = name;
+    h.xs = a0;
+    h.ys = a1;
+    h.values = y;   // row-major with the first input fastest, as the table's rows
+    h.width = 608;  // a square 420 x 420 cell area
+    h.height = 508;
+    h.generator = "lgp data";
+    if (auto s = writeFile(dir / (stem + "_" + name + "_heatmap.svg"), plot::svgHeatmap(h), files);
+        !s)
+      return s;
+    // Slices: y against x0 at a few x1, and against x1 at a few x0.
+    const std::string slices = plot::svgRow(
+        {slicePlot(name, x0, a0, x1, a1, [&](size_t i, size_t j) { return y[j * n0 + i]; }),
+         slicePlot(name, x1, a1, x0, a0, [&](size_t j, size_t i) { return y[j * n0 + i]; })});
+    if (auto s = writeFile(dir / (stem + "_" + name + "_slices.svg"), slices, files); !s) return s;
   }
   return files;
 }

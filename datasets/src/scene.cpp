@@ -4,8 +4,9 @@
 #include <cmath>
 #include <fstream>
 #include <numbers>
-#include <set>
 #include <sstream>
+
+#include "lgp/config/json_reader.hpp"
 
 namespace lgp::datasets {
 
@@ -25,13 +26,15 @@ struct Parser {
   std::string origin;
   std::string err;
   bool fail(const std::string& path, const std::string& why) {
-    if (err.empty()) err = origin + ": " + path + ": " + why;
+    if (err.empty()) err = origin + ": " + jsonError(path, why);
     return false;
   }
-  bool checkKeys(const json& j, const std::string& path, std::set<std::string> allowed) {
-    if (!j.is_object()) return fail(path.empty() ? "/" : path, "must be an object");
-    for (auto it = j.begin(); it != j.end(); ++it)
-      if (!allowed.count(it.key())) return fail(path + "/" + it.key(), "unknown key");
+  bool checkKeys(const json& j, const std::string& path,
+                 std::initializer_list<std::string_view> allowed) {
+    JsonObjectReader o(j, path);
+    if (!o.isObject()) return fail(path, "must be an object");
+    o.allow(allowed);
+    if (auto k = o.unknownKey()) return fail(*k, "unknown key");
     return true;
   }
   template <class E>
@@ -40,7 +43,7 @@ struct Parser {
     if (!j.contains(key)) return true;
     const json& v = j.at(key);
     if (!v.is_string() || !fromString(v.get<std::string>(), out))
-      return fail(path + "/" + key,
+      return fail(jsonPath(path, key),
                   std::string("must be one of ") + choices + " (got " + v.dump() + ")");
     return true;
   }
@@ -48,7 +51,7 @@ struct Parser {
     if (!j.contains(key)) return true;
     const json& v = j.at(key);
     if (!v.is_number() || !std::isfinite(v.get<double>()))
-      return fail(path + "/" + key, "must be a finite number (got " + v.dump() + ")");
+      return fail(jsonPath(path, key), "must be a finite number (got " + v.dump() + ")");
     out = v.get<double>();
     return true;
   }
@@ -57,8 +60,8 @@ struct Parser {
     if (!j.contains(key)) return true;
     const json& v = j.at(key);
     if (!v.is_number_integer() || v.get<long long>() < lo || v.get<long long>() > hi)
-      return fail(path + "/" + key, "must be an integer in [" + std::to_string(lo) + ", " +
-                                        std::to_string(hi) + "] (got " + v.dump() + ")");
+      return fail(jsonPath(path, key), "must be an integer in [" + std::to_string(lo) + ", " +
+                                           std::to_string(hi) + "] (got " + v.dump() + ")");
     out = v.get<int>();
     return true;
   }
@@ -189,7 +192,7 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
       s.light.type = LightType::Environment;
       for (const char* k : {"size", "range", "softmin_s", "incidence"})
         if (l.contains(k)) {
-          p.fail(std::string("/light/") + k, "only valid for a sphere light");
+          p.fail(jsonPath("/light", k), "only valid for a sphere light");
           return Status::error(p.err);
         }
     } else if (type == "sphere") {
@@ -234,7 +237,7 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
   }
   for (size_t i = 0; i < j["outputs"].size(); ++i) {
     const json& o = j["outputs"][i];
-    const std::string path = "/outputs/" + std::to_string(i);
+    const std::string path = jsonPath("/outputs", i);
     const auto& known = knownOutputs();
     if (!o.is_string() ||
         std::find(known.begin(), known.end(), o.get<std::string>()) == known.end()) {
@@ -275,12 +278,12 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
   }
   for (auto it = j["grid"].begin(); it != j["grid"].end(); ++it)
     if (std::find(inputs.begin(), inputs.end(), it.key()) == inputs.end()) {
-      p.fail("/grid/" + it.key(), "not an input of the requested outputs (inputs: " + inputs[0] +
-                                      ", " + inputs[1] + ")");
+      p.fail(jsonPath("/grid", it.key()), "not an input of the requested outputs (inputs: " +
+                                              inputs[0] + ", " + inputs[1] + ")");
       return Status::error(p.err);
     }
   for (const auto& name : inputs) {
-    const std::string path = "/grid/" + name;
+    const std::string path = jsonPath("/grid", name);
     if (!j["grid"].contains(name)) {
       p.fail(path, "missing (every input needs a grid)");
       return Status::error(p.err);
@@ -297,14 +300,14 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
         return Status::error(p.err);
       }
       if (!g["values"].is_array() || g["values"].empty()) {
-        p.fail(path + "/values", "must be a non-empty array of numbers");
+        p.fail(jsonPath(path, "values"), "must be a non-empty array of numbers");
         return Status::error(p.err);
       }
       a.spacing = "values";
       for (size_t i = 0; i < g["values"].size(); ++i) {
         const json& v = g["values"][i];
         if (!v.is_number() || !std::isfinite(v.get<double>())) {
-          p.fail(path + "/values/" + std::to_string(i), "must be a finite number");
+          p.fail(jsonPath(jsonPath(path, "values"), i), "must be a finite number");
           return Status::error(p.err);
         }
         a.values.push_back(v.get<double>());
@@ -314,7 +317,7 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
       a.hi = *std::max_element(a.values.begin(), a.values.end());
     } else {
       if (!g.contains("count")) {
-        p.fail(path + "/count", "missing");
+        p.fail(jsonPath(path, "count"), "missing");
         return Status::error(p.err);
       }
       if (!p.integer(g, "count", path, a.count, 1, 100000)) return Status::error(p.err);
@@ -324,10 +327,11 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
         a.lo = s.light.range_lo;
         a.hi = s.light.range_hi;
       }
-      if (g.contains("range") && !p.range(g["range"], path + "/range", a.lo, a.hi))
+      if (g.contains("range") && !p.range(g["range"], jsonPath(path, "range"), a.lo, a.hi))
         return Status::error(p.err);
       if (g.contains("spacing") && !g["spacing"].is_string()) {
-        p.fail(path + "/spacing", "must be \"edge\" or \"cell\" (got " + g["spacing"].dump() + ")");
+        p.fail(jsonPath(path, "spacing"),
+               "must be \"edge\" or \"cell\" (got " + g["spacing"].dump() + ")");
         return Status::error(p.err);
       }
       a.spacing = g.value("spacing", std::string("edge"));
@@ -343,7 +347,8 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
         for (int i = 0; i < a.count; ++i)
           a.values.push_back(a.lo + (a.hi - a.lo) * (i + 0.5) / a.count);
       } else {
-        p.fail(path + "/spacing", "must be \"edge\" or \"cell\" (got \"" + a.spacing + "\")");
+        p.fail(jsonPath(path, "spacing"),
+               "must be \"edge\" or \"cell\" (got \"" + a.spacing + "\")");
         return Status::error(p.err);
       }
     }

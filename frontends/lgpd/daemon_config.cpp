@@ -4,7 +4,8 @@
 
 #include <algorithm>
 #include <cstring>
-#include <string_view>
+
+#include "lgp/config/json_reader.hpp"
 
 namespace lgpd {
 
@@ -75,7 +76,7 @@ template <class F>
 Status field(const nlohmann::json& j, const char* key, F&& assign) {
   auto it = j.find(key);
   if (it == j.end()) return Status::ok();
-  return assign(*it, std::string("/") + key);
+  return assign(*it, lgp::jsonPath("", key));
 }
 
 Status number(const nlohmann::json& v, const std::string& path, double& out) {
@@ -103,7 +104,7 @@ Status stringArray(const nlohmann::json& v, const std::string& path,
   out.clear();
   for (size_t n = 0; n < v.size(); ++n) {
     if (!v[n].is_string())
-      return Status::error(path + "/" + std::to_string(n) + ": must be a string");
+      return Status::error(lgp::jsonError(lgp::jsonPath(path, n), "must be a string"));
     out.push_back(v[n].get<std::string>());
   }
   return Status::ok();
@@ -111,14 +112,10 @@ Status stringArray(const nlohmann::json& v, const std::string& path,
 
 Status applyMpiJson(const nlohmann::json& j, const std::string& path, MpiDaemonConfig& m) {
   if (!j.is_object()) return Status::error(path + ": must be an object");
-  static constexpr std::string_view kKeys[] = {"launcher", "hostfile", "args",
-                                               "max_np",   "lgp",      "stop_grace_s"};
-  for (const auto& [k, v] : j.items()) {
-    bool known = false;
-    for (auto kk : kKeys) known = known || kk == k;
-    if (!known) return Status::error(path + "/" + k + ": unknown key");
-  }
-  auto sub = [&](const char* key) { return path + "/" + key; };
+  lgp::JsonObjectReader keys(j, path);
+  keys.allow({"launcher", "hostfile", "args", "max_np", "lgp", "stop_grace_s"});
+  if (auto k = keys.unknownKey()) return Status::error(lgp::jsonError(*k, "unknown key"));
+  auto sub = [&](const char* key) { return lgp::jsonPath(path, key); };
   std::string str;
   int64_t i = 0;
   if (auto it = j.find("launcher"); it != j.end()) {
@@ -148,24 +145,13 @@ Status applyMpiJson(const nlohmann::json& j, const std::string& path, MpiDaemonC
 }  // namespace
 
 Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
-  if (!j.is_object()) return Status::error("/: the daemon config must be a JSON object");
-  static constexpr std::string_view kKeys[] = {"data_dir",
-                                               "listen",
-                                               "max_jobs",
-                                               "checkpoint_interval_s",
-                                               "progress_interval_s",
-                                               "front_interval_s",
-                                               "token",
-                                               "max_body_bytes",
-                                               "data_base_dir",
-                                               "allowed_data_dirs",
-                                               "http_threads",
-                                               "mpi"};
-  for (const auto& [k, v] : j.items()) {
-    bool known = false;
-    for (auto kk : kKeys) known = known || kk == k;
-    if (!known) return Status::error("/" + k + ": unknown key");
-  }
+  if (!j.is_object())
+    return Status::error(lgp::jsonError("", "the daemon config must be a JSON object"));
+  lgp::JsonObjectReader keys(j, "");
+  keys.allow({"data_dir", "listen", "max_jobs", "checkpoint_interval_s", "progress_interval_s",
+              "front_interval_s", "token", "max_body_bytes", "data_base_dir", "allowed_data_dirs",
+              "http_threads", "mpi"});
+  if (auto k = keys.unknownKey()) return Status::error(lgp::jsonError(*k, "unknown key"));
   Status s;
   std::string str;
   int64_t i = 0;

@@ -1,7 +1,8 @@
-// Quality-report SVG plots: well-formed XML for any input (empty, NaN, log axes with
-// non-positive values, degenerate ranges), byte-determinism, escaping, exact geometry of clipped
-// lines and Pareto staircases, heatmap cells and file size.
-#include "svg_plot.hpp"
+// The SVG plotter (lgp/io/svg_plot.hpp) of the quality report and `lgp data`: well-formed XML
+// for any input (empty, NaN, log axes with non-positive values, degenerate ranges),
+// byte-determinism under any locale, escaping, exact geometry of clipped lines and Pareto
+// staircases, heatmap cells and file size, plots side by side.
+#include "lgp/io/svg_plot.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,6 +10,8 @@
 
 #include <clocale>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -18,97 +21,13 @@
 #include <string>
 #include <vector>
 
-using namespace lgp::quality;
+#include "svg_check.hpp"
+
+using namespace lgp::plot;
+using namespace lgp::svg_check;
 namespace fs = std::filesystem;
 
 namespace {
-
-size_t count(const std::string& s, const std::string& what) {
-  size_t n = 0;
-  for (size_t i = s.find(what); i != std::string::npos; i = s.find(what, i + what.size())) ++n;
-  return n;
-}
-
-bool entityAt(const std::string& s, size_t i) {
-  for (const char* e : {"&amp;", "&lt;", "&gt;", "&quot;", "&apos;"})
-    if (s.compare(i, std::strlen(e), e) == 0) return true;
-  return false;
-}
-
-// A small XML well-formedness check: one root element, tags nest, attributes are single-quoted
-// and unique, text and values hold no raw '<', '>' or unknown entity, no NaN/Inf leaks into a
-// value. Also the shape asked of every plot: starts with <svg, ends with "</svg>\n".
-::testing::AssertionResult wellFormed(const std::string& s) {
-  if (s.rfind("<svg", 0) != 0) return ::testing::AssertionFailure() << "does not start with <svg";
-  if (s.size() < 7 || s.compare(s.size() - 7, 7, "</svg>\n") != 0)
-    return ::testing::AssertionFailure() << "does not end with </svg>\\n";
-  std::vector<std::string> open;
-  bool rootClosed = false;
-  for (size_t i = 0; i < s.size();) {
-    if (s[i] == '&') {
-      if (!entityAt(s, i)) return ::testing::AssertionFailure() << "bad entity at " << i;
-      ++i;
-      continue;
-    }
-    if (s[i] == '>') return ::testing::AssertionFailure() << "raw > at " << i;
-    if (s[i] != '<') {
-      if (rootClosed && !std::isspace(static_cast<unsigned char>(s[i])))
-        return ::testing::AssertionFailure() << "text after the root at " << i;
-      ++i;
-      continue;
-    }
-    if (s.compare(i, 4, "<!--") == 0) {
-      const size_t e = s.find("-->", i);
-      if (e == std::string::npos) return ::testing::AssertionFailure() << "open comment";
-      i = e + 3;
-      continue;
-    }
-    const size_t e = s.find('>', i);
-    if (e == std::string::npos) return ::testing::AssertionFailure() << "open tag at " << i;
-    std::string tag = s.substr(i + 1, e - i - 1);
-    if (tag.find('<') != std::string::npos)
-      return ::testing::AssertionFailure() << "'<' inside tag at " << i;
-    if (rootClosed) return ::testing::AssertionFailure() << "second root at " << i;
-    if (tag[0] == '/') {
-      if (open.empty() || open.back() != tag.substr(1))
-        return ::testing::AssertionFailure() << "mismatched </" << tag.substr(1) << "> at " << i;
-      open.pop_back();
-      rootClosed = open.empty();
-    } else {
-      const bool self = tag.back() == '/';
-      if (self) tag.pop_back();
-      size_t p = tag.find_first_of(" \n");
-      const std::string name = tag.substr(0, p);
-      std::set<std::string> attrs;
-      while (p != std::string::npos && p < tag.size()) {
-        p = tag.find_first_not_of(" \n", p);
-        if (p == std::string::npos) break;
-        const size_t eq = tag.find("='", p);
-        if (eq == std::string::npos)
-          return ::testing::AssertionFailure() << "bad attribute in <" << tag;
-        const size_t q = tag.find('\'', eq + 2);
-        if (q == std::string::npos) return ::testing::AssertionFailure() << "unquoted in <" << tag;
-        const std::string attr = tag.substr(p, eq - p), value = tag.substr(eq + 2, q - eq - 2);
-        if (!attrs.insert(attr).second)
-          return ::testing::AssertionFailure() << "duplicate " << attr << " in <" << tag;
-        if (value.find('>') != std::string::npos || value.find("nan") != std::string::npos ||
-            value.find("inf") != std::string::npos)
-          return ::testing::AssertionFailure() << "bad value '" << value << "' in <" << tag;
-        for (size_t a = value.find('&'); a != std::string::npos; a = value.find('&', a + 1))
-          if (!entityAt(value, a)) return ::testing::AssertionFailure() << "entity in " << value;
-        p = q + 1;
-      }
-      if (open.empty() && name != "svg") return ::testing::AssertionFailure() << "root " << name;
-      if (!self) open.push_back(name);
-      if (self && open.empty()) rootClosed = true;
-    }
-    i = e + 1;
-  }
-  if (!open.empty()) return ::testing::AssertionFailure() << "unclosed <" << open.back() << ">";
-  if (count(s, "<g ") + count(s, "<g>") != count(s, "</g>"))
-    return ::testing::AssertionFailure() << "unbalanced <g>";
-  return ::testing::AssertionSuccess();
-}
 
 // The part of `s` from the element starting with `start` to its matching "</g>".
 std::string group(const std::string& s, const std::string& start) {
@@ -184,28 +103,138 @@ TEST(SvgPlot, Deterministic) {
   EXPECT_EQ(svgHeatmap(h), svgHeatmap(h));
 }
 
-TEST(SvgPlot, LocaleDoesNotChangeOutput) {
+namespace {
+
+// A C locale with a decimal comma for printf and friends: an installed one, else one built
+// with localedef into a temporary LOCPATH (glibc reads LOCPATH on every setlocale). Returns
+// its name, or "" when neither works (then only the C++ locale is checked).
+std::string commaCLocale(const fs::path& tmp) {
+  for (const char* name : {"de_DE.UTF-8", "de_DE.utf8", "fr_FR.UTF-8", "fr_FR.utf8"})
+    if (std::setlocale(LC_NUMERIC, name)) return name;
+  if (!fs::exists("/usr/share/i18n/locales/de_DE")) return "";
+  fs::create_directories(tmp);
+  const std::string cmd = "localedef -i de_DE -f ISO-8859-1 '" +
+                          (tmp / "de_DE.ISO-8859-1").string() + "' > /dev/null 2>&1";
+  if (std::system(cmd.c_str()) != 0) return "";
+  ::setenv("LOCPATH", tmp.c_str(), 1);
+  return std::setlocale(LC_NUMERIC, "de_DE.ISO-8859-1") ? "de_DE.ISO-8859-1" : "";
+}
+
+// Equal, else where they first differ (whole plots would bury the difference).
+::testing::AssertionResult same(const std::string& a, const std::string& b) {
+  if (a == b) return ::testing::AssertionSuccess();
+  size_t i = 0;
+  while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
+  const size_t from = i < 40 ? 0 : i - 40;
+  return ::testing::AssertionFailure() << "differ at byte " << i << ": \"" << a.substr(from, 80)
+                                       << "\" vs \"" << b.substr(from, 80) << "\"";
+}
+
+struct Outputs {
+  std::string plot, heat, row, number;
+};
+Outputs everything() {
   Axes a;
   a.width = 1234;
-  const std::vector<Series> s = {line({0.5, 1.25, 2000.75}, {1.5, 2.5, 1e6}, Series::Style::Line)};
-  const std::string plain = svgPlot(a, s), heat = svgHeatmap(grid(6, 4));
-  const std::locale old;
-  bool switched = false;
-  for (const char* name : {"de_DE.UTF-8", "de_DE.utf8", "fr_FR.UTF-8", "fr_FR.utf8"}) {
-    try {
-      std::locale::global(std::locale(name));
-      std::setlocale(LC_ALL, name);
-      switched = true;
-      break;
-    } catch (const std::exception&) {
-    }
-  }
-  const std::string localized = svgPlot(a, s), heatLocalized = svgHeatmap(grid(6, 4));
+  a.logy = true;
+  a.hlines = {{0.015, "target 1.5%"}};
+  std::vector<Series> s = {line({0.5, 1.25, 2000.75}, {1.5, 2.5, 1e6}, Series::Style::Line),
+                           line({1, 2}, {0.01, 0.02}, Series::Style::Steps, "front 0.5 min")};
+  s[1].labels = {"1.5", "2.25"};
+  Heatmap h = grid(6, 4);
+  h.xs = {0.5, 1.25, 2.5, 1000.5, 2000.25, 3000.125};
+  Heatmap d = h;
+  d.diverging = true;
+  Axes b;
+  b.xmin = 0.25, b.xmax = 1.75;
+  return {svgPlot(a, s), svgHeatmap(h) + svgHeatmap(d), svgRow({{a, s}, {b, {s[1]}}}),
+          formatNumber(1234.5678, 8) + " " + formatNumber(0.000125, 3)};
+}
+
+}  // namespace
+
+TEST(SvgPlot, LocaleDoesNotChangeOutput) {
+  const Outputs plain = everything();
+  const fs::path tmp =
+      fs::temp_directory_path() / ("lgp_svg_plot_locale_" + std::to_string(::getpid()));
+  const std::string cname = commaCLocale(tmp);
+  const std::locale old =
+      std::locale::global(std::locale(std::locale::classic(), new CommaDecimal));
+  // The locales are in effect: a number that went through a stream or printf would change.
+  std::ostringstream probe;
+  probe << 1234.5;
+  char cbuf[32] = "";
+  std::snprintf(cbuf, sizeof cbuf, "%.1f", 0.5);
+  const Outputs localized = everything();
   std::locale::global(old);
-  std::setlocale(LC_ALL, "C");
-  if (!switched) GTEST_SKIP() << "no comma-decimal locale installed";
-  EXPECT_EQ(plain, localized);
-  EXPECT_EQ(heat, heatLocalized);
+  std::setlocale(LC_NUMERIC, "C");
+  fs::remove_all(tmp);
+  EXPECT_EQ(probe.str(), "1.234,5");
+  if (!cname.empty()) {
+    EXPECT_STREQ(cbuf, "0,5") << cname;
+  } else {
+    std::fprintf(stderr, "note: no C locale with a decimal comma; printf is not checked\n");
+  }
+  EXPECT_TRUE(same(plain.plot, localized.plot));
+  EXPECT_TRUE(same(plain.heat, localized.heat));
+  EXPECT_TRUE(same(plain.row, localized.row));
+  EXPECT_EQ(plain.number, localized.number);
+  EXPECT_EQ(plain.number, "1234.5678 0.000125");
+}
+
+TEST(SvgPlot, FormatNumberIsPrintfG) {
+  for (double v : {0.0, 1.0, -2.5, 1234.5678, 1e-5, 0.000125, 123456789.0, 6.02214076e23, 1e300,
+                   -1e-300, 0.1, 2.0 / 3.0})
+    for (int sig : {1, 3, 4, 6, 12, 17}) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.*g", sig, v);
+      EXPECT_EQ(formatNumber(v, sig), b) << v << " " << sig;
+    }
+  EXPECT_EQ(formatNumber(-0.0, 4), "0");
+  EXPECT_EQ(formatNumber(kNaN, 4), "nan");
+  EXPECT_EQ(formatNumber(-INFINITY, 4), "-inf");
+  EXPECT_EQ(formatNumber(0.5, 0), "0.5");  // clamped to at least one digit
+}
+
+TEST(SvgPlot, RowPutsEachPlotInItsOwnColumn) {
+  Axes a, b;
+  a.title = "left";
+  a.width = 300;
+  a.height = 200;
+  b.title = "right";
+  b.width = 400;
+  b.height = 250;
+  b.generator = "not used";
+  const std::vector<Series> s = {line({0, 1}, {0, 1}, Series::Style::LineMarkers, "s")};
+  const std::string row = svgRow({{a, s}, {b, s}});
+  EXPECT_TRUE(wellFormed(row));
+  EXPECT_EQ(row.rfind("<svg xmlns='http://www.w3.org/2000/svg' width='700' height='250' "
+                      "viewBox='0 0 700 250'",
+                      0),
+            0u);
+  EXPECT_EQ(count(row, "<!-- generated by lgp -->"), 1u);  // the first plot's generator
+  // Each column holds exactly what svgPlot draws inside its <svg> element.
+  const auto body = [](const std::string& svg) {
+    const std::string bg = "<rect width='100%' height='100%' fill='#fff'/>\n";
+    const size_t b0 = svg.find(bg) + bg.size();
+    return svg.substr(b0, svg.size() - b0 - std::strlen("</svg>\n"));
+  };
+  const std::string left = "<g transform='translate(0 0)'>\n" + body(svgPlot(a, s)) + "</g>\n";
+  const std::string right = "<g transform='translate(300 0)'>\n" + body(svgPlot(b, s)) + "</g>\n";
+  EXPECT_NE(row.find(left + right + "</svg>\n"), std::string::npos);
+  EXPECT_TRUE(wellFormed(svgRow({})));
+}
+
+TEST(SvgPlot, GeneratorIsNamedInAComment) {
+  Axes a;
+  EXPECT_NE(svgPlot(a, {}).find("\n<!-- generated by lgp -->\n"), std::string::npos);
+  a.generator = "lgp quality";
+  EXPECT_NE(svgPlot(a, {}).find("\n<!-- generated by lgp quality -->\n"), std::string::npos);
+  Heatmap h = grid(2, 2);
+  h.generator = "a--b -->";  // would end the comment early
+  const std::string heat = svgHeatmap(h);
+  EXPECT_TRUE(wellFormed(heat));
+  EXPECT_NE(heat.find("<!-- generated by a-b -&gt; -->"), std::string::npos);
 }
 
 TEST(SvgPlot, EscapesAllText) {
@@ -426,6 +455,15 @@ TEST(SvgPlot, LongLegendNamesAreShortened) {
   EXPECT_TRUE(wellFormed(svg));
   EXPECT_EQ(svg.find(name), std::string::npos);
   EXPECT_NE(svg.find("nnn\xe2\x80\xa6</text>"), std::string::npos);
+}
+
+TEST(SvgPlot, LegendNamesThatFitAreWhole) {
+  Axes a;  // 720 wide: the legend column grows to 288 px, room for 36 characters
+  for (size_t n = 1; n <= 36; ++n) {
+    const std::string name(n, 'x');
+    const std::string svg = svgPlot(a, {line({1, 2}, {1, 2}, Series::Style::Line, name)});
+    EXPECT_NE(svg.find(">" + name + "</text>"), std::string::npos) << n;
+  }
 }
 
 TEST(SvgHeatmap, OneRectPerCellAndGreyNaN) {
