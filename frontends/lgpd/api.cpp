@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <map>
+#include <mutex>
 #include <string_view>
 
 #include "lgp/eval/interpreter.hpp"
@@ -13,6 +15,7 @@
 #include "lgpd_web.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/emit.hpp"
+#include "lgp/emit/score.hpp"
 #endif
 
 namespace lgpd {
@@ -23,6 +26,7 @@ namespace {
 
 constexpr size_t kDefaultResidualRows = 65536;
 constexpr size_t kMaxHistoryRows = 5000;
+constexpr size_t kMaxScoredReferenceRuns = 256;  // runs whose scored references are kept
 
 void sendJson(httplib::Response& res, int status, const json& body) {
   res.status = status;
@@ -304,6 +308,10 @@ class Api {
   }
 
   void deleteRun(const std::string& id, httplib::Response& res) {
+    {
+      std::lock_guard<std::mutex> lock(refs_mu_);
+      refs_cache_.erase(id);
+    }
     auto r = jobs_.remove(id);
     if (!r) return sendError(res, 500, "store error: " + r.error());
     if (!*r) return sendError(res, 404, "no run " + id);
@@ -324,12 +332,53 @@ class Api {
   }
 
   void front(const std::string& id, httplib::Response& res) {
-    if (!loadRun(id, res)) return;
+    auto run = loadRun(id, res);
+    if (!run) return;
     auto f = loadFront(id, res);
     if (!f) return;
     json j = std::move(f->front);
+    if (auto r = j.find("references"); r != j.end()) *r = scoredReferences(*run, *r);
     j["lgpd"] = {{"run", id}, {"final", f->final}, {"generation", f->generation}};
     sendJson(res, 200, j);
+  }
+
+  // A stored front carries the config's references as given ({"name", "expr"}); they are
+  // scored here on the run's table, as `lgp run` scores them into front.json (emit's
+  // scoreReferences: error, cost, discontinuity, formula, ...; {"name", "expr", "invalid"}
+  // for one that does not parse or score), once per run: config and table do not change.
+  json scoredReferences(const RunRecord& run, const json& given) {
+    if (!given.is_array() || given.empty()) return given;
+    bool scored = true;  // already scored (every entry has an error or an "invalid")
+    for (const auto& r : given)
+      if (!r.is_object() || !(r.contains("error") || r.contains("invalid"))) scored = false;
+    if (scored) return given;
+#ifdef LGP_HAVE_EMIT
+    {
+      std::lock_guard<std::mutex> lock(refs_mu_);
+      if (auto it = refs_cache_.find(run.id); it != refs_cache_.end()) return it->second;
+    }
+    std::string why;
+    if (auto cfg = jobs_.config(run); !cfg) {
+      why = "stored config no longer parses: " + cfg.error();
+    } else if (auto table = jobs_.table(run); !table) {
+      why = "cannot load the run's table: " + table.error();  // not cached: may come back
+    } else {
+      json out = lgp::emit::scoreReferences(*cfg, **table);
+      std::lock_guard<std::mutex> lock(refs_mu_);
+      if (refs_cache_.size() >= kMaxScoredReferenceRuns) refs_cache_.clear();
+      refs_cache_[run.id] = out;
+      return out;
+    }
+#else
+    const std::string why = "references are not scored: this lgpd was built without lgp::emit";
+#endif
+    json out = json::array();
+    for (const auto& r : given) {
+      json e = r.is_object() ? r : json{{"name", "(reference)"}};
+      e["invalid"] = why;
+      out.push_back(std::move(e));
+    }
+    return out;
   }
 
   // The member object of the front, or a 404.
@@ -450,6 +499,8 @@ class Api {
   Store& store_;
   JobManager& jobs_;
   std::string token_;
+  std::mutex refs_mu_;
+  std::map<std::string, json> refs_cache_;  // run id -> its scored references
 };
 
 }  // namespace
