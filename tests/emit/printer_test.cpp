@@ -20,7 +20,7 @@ namespace {
 struct Case {
   std::string program;  // parser syntax, read without mad fusion (one opcode per call)
   std::string expected;
-  std::vector<Interval> domain;  // mu, r
+  std::vector<Interval> domain = {};  // mu, r
   double max_ulp = 0;            // 0: bit-identical
 };
 
