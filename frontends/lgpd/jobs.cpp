@@ -595,7 +595,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
              (!resume_from ||
               (**stored)["generation"].get<int>() > (*resume_from)["generation"].get<int>())) {
     resume_from = std::move(*stored);
-    if (auto s = writeFileAtomic(work.checkpoint(), resume_from->dump()); !s) return s;
+    if (auto s = lgp::writeTextAtomic(resume_from->dump(), work.checkpoint()); !s) return s;
   }
   if (!resume_from) fs::remove(work.checkpoint(), ec);
   const bool resume = resume_from.has_value();
@@ -615,7 +615,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
       o != rc.end() && o->is_object() && o->contains("progress_cost_levels"))
     output["progress_cost_levels"] = (*o)["progress_cost_levels"];
   rc["output"] = std::move(output);
-  if (auto s = writeFileAtomic(work.config(), rc.dump(2) + "\n"); !s) return s;
+  if (auto s = lgp::writeTextAtomic(rc.dump(2) + "\n", work.config()); !s) return s;
 
   if (job.deleted.load()) return Status::ok();
   if (job.cancel.load()) {
@@ -637,7 +637,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
   if (auto s = store_.markStarted(id, resume, resume_generation); !s) return s;
   auto child = ChildProcess::spawn(argv, env, work.log());
   if (!child) return Status::error("cannot start " + argv[0] + ": " + child.error());
-  writeFileAtomic(work.pidFile(), std::to_string(child->pid()) + "\n");
+  lgp::writeTextAtomic(std::to_string(child->pid()) + "\n", work.pidFile());
   spdlog::info("run {} {} over MPI: {} -np {} (pid {}){}", id, resume ? "resumed" : "started",
                argv[0], cfg.mpi.np, child->pid(),
                resume ? " from generation " + std::to_string(resume_generation) : "");

@@ -274,21 +274,6 @@ std::optional<json> readJsonFile(const fs::path& p) {
   return j;
 }
 
-Status writeFileAtomic(const fs::path& p, const std::string& text) {
-  fs::path tmp = p;
-  tmp += ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << text;
-    f.flush();
-    if (!f) return Status::error("cannot write " + tmp.string());
-  }
-  std::error_code ec;
-  fs::rename(tmp, p, ec);
-  if (ec) return Status::error("cannot rename " + tmp.string() + ": " + ec.message());
-  return Status::ok();
-}
-
 FileVersion FileVersion::of(const fs::path& p) {
   struct stat st {};
   FileVersion v;

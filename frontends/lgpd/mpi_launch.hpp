@@ -93,8 +93,6 @@ std::string fileTail(const std::filesystem::path& p, size_t max_lines, size_t ma
 // Reads and parses a JSON file that its writer replaces atomically; nullopt if it is missing
 // or does not parse.
 std::optional<nlohmann::json> readJsonFile(const std::filesystem::path& p);
-// Writes via PATH.tmp and rename, so a reader never sees half a file.
-lgp::Status writeFileAtomic(const std::filesystem::path& p, const std::string& text);
 
 // Identifies one version of a file that is replaced by rename: a change of inode, size or
 // mtime means a new version.

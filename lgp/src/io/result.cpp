@@ -109,12 +109,11 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
           {"references", cfg.references}};
 }
 
-Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& path, int indent) {
+Status writeTextAtomic(const std::string& text, const std::filesystem::path& path) {
   const auto tmp = path.string() + ".tmp";
   {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) return Status::error(path.string() + ": cannot write (" + std::strerror(errno) + ")");
-    const std::string text = j.dump(indent) + "\n";
     const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
                     std::fflush(f) == 0 && ::fsync(fileno(f)) == 0;
     const int err = errno;
@@ -129,6 +128,10 @@ Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& pat
   return Status::ok();
 }
 
+Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& path, int indent) {
+  return writeTextAtomic(j.dump(indent) + "\n", path);
+}
+
 Status writeFrontJson(const nlohmann::json& front, const std::filesystem::path& path) {
   // A crash never leaves a half-written front.
   return writeJsonAtomic(front, path, 2);
@@ -138,11 +141,11 @@ Status writeCheckpointFile(const nlohmann::json& state, const std::filesystem::p
   return writeJsonAtomic(state, path, -1);
 }
 
-Expected<nlohmann::json> readCheckpointFile(const std::filesystem::path& path) {
+namespace {
+// Reads a JSON document and checks its "format"; errors name the file.
+Expected<nlohmann::json> readJsonDocument(const std::filesystem::path& path,
+                                          const std::string& format) {
   const std::string f = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    return Status::error(f + ": no checkpoint file there");
   std::ifstream in(path);
   if (!in) return Status::error(f + ": cannot open");
   nlohmann::json j;
@@ -151,9 +154,17 @@ Expected<nlohmann::json> readCheckpointFile(const std::filesystem::path& path) {
   } catch (const nlohmann::json::exception& e) {
     return Status::error(f + ": invalid JSON: " + e.what());
   }
-  if (!j.is_object() || j.value("format", "") != "lgp-checkpoint/2")
-    return Status::error(f + ": /format: expected \"lgp-checkpoint/2\"");
+  if (!j.is_object() || j.value("format", "") != format)
+    return Status::error(f + ": /format: expected \"" + format + "\"");
   return j;
+}
+}  // namespace
+
+Expected<nlohmann::json> readCheckpointFile(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    return Status::error(path.string() + ": no checkpoint file there");
+  return readJsonDocument(path, "lgp-checkpoint/2");
 }
 
 nlohmann::json progressToJson(const SearchProgress& p) {
@@ -225,16 +236,9 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
 
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
   const std::string f = path.string();
-  std::ifstream in(path);
-  if (!in) return Status::error(f + ": cannot open");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(f + ": invalid JSON: " + e.what());
-  }
-  if (!j.is_object() || j.value("format", "") != "lgp-front/1")
-    return Status::error(f + ": /format: expected \"lgp-front/1\"");
+  auto doc = readJsonDocument(path, "lgp-front/1");
+  if (!doc) return doc;
+  nlohmann::json& j = *doc;
   if (!j.contains("members") || !j["members"].is_array())
     return Status::error(f + ": /members: must be an array");
   if (!j.contains("table") || !j["table"].contains("inputs") || !j["table"].contains("outputs"))
@@ -245,7 +249,7 @@ Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
     if (!m.is_object() || !m.contains("program") || !m.contains("outputs") || !m.contains("cost"))
       return Status::error(at + ": needs program, outputs and cost");
   }
-  return j;
+  return doc;
 }
 
 Expected<Program> memberProgram(const nlohmann::json& front, size_t index) {

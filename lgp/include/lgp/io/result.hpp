@@ -45,8 +45,10 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
 Status writeFrontJson(const nlohmann::json& front, const std::filesystem::path& path);
 Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& path);
 
-// Writes `j` to `path` through a temporary file, flushed to disk and renamed, so a crash
-// leaves the old file or the new one, never a half-written one. indent < 0 = compact.
+// Writes `text` to `path` through a temporary file, flushed to disk and renamed, so a crash
+// leaves the old file or the new one, never a half-written one.
+Status writeTextAtomic(const std::string& text, const std::filesystem::path& path);
+// The same for JSON; indent < 0 = compact.
 Status writeJsonAtomic(const nlohmann::json& j, const std::filesystem::path& path, int indent);
 // A search checkpoint file (`lgp run --checkpoint`): written atomically, read back with the
 // file named in every error.
