@@ -66,3 +66,38 @@ TEST(JsonObjectReader, RunConfigMessages) {
                     "search": {"generations": 1}})"),
             "/data/transforms/B~1C: not one of data.outputs");
 }
+
+// parseJson: the checks nlohmann does not make, each with a message that says where.
+TEST(ParseJson, Limits) {
+  const auto err = [](const std::string& text, lgp::JsonLimits lim = {}) {
+    auto j = lgp::parseJson(text, lim);
+    return j ? std::string("ok") : j.error();
+  };
+  EXPECT_EQ(err(R"({"a": [1, {"b": "[[[{{{"}]})"), "ok");  // brackets in strings do not count
+  EXPECT_EQ(err(std::string(64, '[') + std::string(64, ']')), "ok");
+  EXPECT_EQ(err(std::string(65, '[') + std::string(65, ']')),
+            "JSON nested deeper than 64 levels (at byte 64)");
+  // 100k deep, the document that crashed lgpd: refused before any tree is built.
+  std::string deep;
+  for (int i = 0; i < 100000; ++i) deep += R"({"a":)";
+  EXPECT_EQ(err(deep), "JSON nested deeper than 64 levels (at byte 320)");
+  EXPECT_EQ(err(R"({"s": "\"[[[[\\"})", {.max_depth = 1}), "ok");  // escapes end strings right
+  EXPECT_EQ(err("[1,2,3]", {.max_depth = 64, .max_bytes = 6}),
+            "JSON text of 7 bytes exceeds the limit of 6");
+  EXPECT_EQ(err(R"({"data": {"path": "a", "path": "b"}})"),
+            "/data/path: key appears twice in one object");
+  EXPECT_EQ(err(R"([{"x": 1}, {"x": 1, "y": [0, {"k": 1, "k": 2}]}])"),
+            "/1/y/1/k: key appears twice in one object");
+  EXPECT_EQ(err(R"([{"x": 1}, {"x": 2}])"), "ok");  // same key in sibling objects is fine
+  EXPECT_NE(err(R"({"w": 1e999})").find("number out of range"), std::string::npos);
+  EXPECT_NE(err("[" + std::string(400, '9') + "]").find("number out of range"), std::string::npos);
+  EXPECT_EQ(err("[1e-310, 1e308]"), "ok");  // subnormal and large but finite
+  EXPECT_NE(err("{\"a\": 1,}").find("invalid JSON"), std::string::npos);
+  EXPECT_NE(err("").find("invalid JSON"), std::string::npos);
+}
+
+TEST(ParseJson, RunConfigTextUsesIt) {
+  auto c = lgp::parseRunConfigText(R"({"data": {"path": "a.csv", "path": "b.csv"}})", "cfg.json");
+  ASSERT_FALSE(c);
+  EXPECT_EQ(c.error(), "cfg.json: /data/path: key appears twice in one object");
+}

@@ -533,12 +533,9 @@ Expected<RunConfig> loadRunConfig(const std::filesystem::path& path) {
 }
 
 Expected<RunConfig> parseRunConfigText(const std::string& text, const std::filesystem::path& path) {
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(path.string() + ": invalid JSON: " + e.what());
-  }
+  auto parsed = parseJson(text);
+  if (!parsed) return Status::error(path.string() + ": " + parsed.error());
+  const nlohmann::json& j = *parsed;
   auto base = path.parent_path();
   if (base.empty()) base = ".";
   auto c = parseRunConfig(j, base);

@@ -1,6 +1,8 @@
 #include "lgp/config/json_reader.hpp"
 
+#include <cmath>
 #include <utility>
+#include <vector>
 
 namespace lgp {
 
@@ -52,6 +54,108 @@ std::optional<std::string> JsonObjectReader::unknownKey() const {
   for (auto it = j_.begin(); it != j_.end(); ++it)
     if (!known_.count(it.key())) return path(it.key());
   return std::nullopt;
+}
+
+namespace {
+
+// The depth of brackets outside strings. Linear, no allocation; syntax errors are left to
+// the parser, which reports them with line and column.
+std::optional<size_t> firstTooDeep(std::string_view text, size_t max_depth) {
+  size_t depth = 0;
+  bool in_string = false, escaped = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (escaped) {
+        escaped = false;
+      } else if (c == '\\') {
+        escaped = true;
+      } else if (c == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > max_depth) return i;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return std::nullopt;
+}
+
+struct Rejected {
+  std::string why;
+};
+
+}  // namespace
+
+Expected<nlohmann::json> parseJson(std::string_view text, const JsonLimits& limits) {
+  using nlohmann::json;
+  if (text.size() > limits.max_bytes)
+    return Status::error("JSON text of " + std::to_string(text.size()) +
+                         " bytes exceeds the limit of " + std::to_string(limits.max_bytes));
+  if (auto at = firstTooDeep(text, limits.max_depth))
+    return Status::error("JSON nested deeper than " + std::to_string(limits.max_depth) +
+                         " levels (at byte " + std::to_string(*at) + ")");
+  // One frame per open container: its pointer, its keys so far (objects) or its next index
+  // (arrays), and the key just read. The depth is bounded by the pre-scan.
+  struct Frame {
+    std::string path;
+    bool object = false;
+    size_t next_index = 0;
+    std::set<std::string, std::less<>> keys;
+    std::string key;
+  };
+  std::vector<Frame> stack;
+  auto childPath = [&]() -> std::string {
+    if (stack.empty()) return "";
+    auto& f = stack.back();
+    return f.object ? jsonPath(f.path, f.key) : jsonPath(f.path, f.next_index);
+  };
+  auto valueDone = [&] {
+    if (!stack.empty() && !stack.back().object) ++stack.back().next_index;
+  };
+  json::parser_callback_t cb = [&](int, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start: {
+        Frame f;
+        f.path = childPath();
+        f.object = event == json::parse_event_t::object_start;
+        stack.push_back(std::move(f));
+        break;
+      }
+      case json::parse_event_t::key: {
+        auto& f = stack.back();
+        f.key = parsed.get<std::string>();
+        if (!f.keys.insert(f.key).second)
+          throw Rejected{jsonError(jsonPath(f.path, f.key), "key appears twice in one object")};
+        break;
+      }
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!stack.empty()) stack.pop_back();
+        valueDone();
+        break;
+      case json::parse_event_t::value:
+        valueDone();
+        break;
+    }
+    return true;
+  };
+  try {
+    return json::parse(text, cb);
+  } catch (const Rejected& r) {
+    return Status::error(r.why);
+  } catch (const json::out_of_range& e) {
+    // nlohmann's 406: "number overflow parsing '1e999'"
+    return Status::error(std::string("number out of range: ") + e.what());
+  } catch (const json::exception& e) {
+    return Status::error(std::string("invalid JSON: ") + e.what());
+  }
 }
 
 }  // namespace lgp

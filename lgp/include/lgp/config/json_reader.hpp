@@ -14,7 +14,24 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lgp/core/status.hpp"
+
 namespace lgp {
+
+// Limits of parseJson. The depth is checked by a pre-scan before any tree is built: nlohmann
+// parses iteratively, but copying, dumping and destroying a value recurse, so a document
+// nested 100k deep would exhaust the stack later, far from the input.
+struct JsonLimits {
+  size_t max_depth = 64;               // arrays and objects nested inside each other
+  size_t max_bytes = size_t{1} << 28;  // 256 MiB of text
+};
+
+// Parses one JSON document (RFC 8259) and refuses what nlohmann would accept silently or
+// report without a path: nesting deeper than max_depth, text longer than max_bytes, a number
+// outside the range of double ("1e999", a 400-digit integer) and a key that appears twice in
+// one object (nlohmann keeps the last). The error names the position or the JSON Pointer:
+//   "nested deeper than 64 levels (at byte 65)", "/data/weights: key 'path' appears twice".
+Expected<nlohmann::json> parseJson(std::string_view text, const JsonLimits& limits = {});
 
 // The pointer to member `key` (or element `index`) of the value at `parent` ("" = the whole
 // document). '~' and '/' in a key are written "~0" and "~1", so a path names one value.
