@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <optional>
@@ -187,6 +188,22 @@ class Parser {
     if (err_.empty()) err_ = at(m);
     return false;
   }
+  // Nesting guard: parentheses, call arguments, unary signs and '? :' branches each take one
+  // level (and a few stack frames) while they are open.
+  struct Nest {
+    Parser& p;
+    explicit Nest(Parser& q) : p(q) { ++p.depth_; }
+    ~Nest() { --p.depth_; }
+    Nest(const Nest&) = delete;
+    Nest& operator=(const Nest&) = delete;
+  };
+  bool tooDeep() {
+    if (depth_ <= kMaxFormulaNesting) return false;
+    fail("nested deeper than " + std::to_string(kMaxFormulaNesting) +
+         " levels (parentheses, function calls, unary signs and '? :' count)");
+    return true;
+  }
+
   bool expect(std::string_view s) {
     if (isP(s)) {
       ++p_;
@@ -243,6 +260,8 @@ class Parser {
   int mk2(Op op, int a, int b) { return mk(op, {a, b, -1, -1}); }
 
   bool expr(PExpr& out) {
+    Nest nest(*this);
+    if (tooDeep()) return false;
     PExpr a;
     if (!additive(a)) return false;
     std::string cmp = a.cmp;
@@ -333,6 +352,8 @@ class Parser {
 
   bool unary(PExpr& out) {
     if (isP("-") || isP("+")) {
+      Nest nest(*this);
+      if (tooDeep()) return false;
       const bool neg = t_[p_].text == "-";
       ++p_;
       PExpr a;
@@ -377,7 +398,11 @@ class Parser {
     return true;
   }
 
-  std::optional<int> lookup(const std::string& name) const {
+  // A name's node: a let-bound name, a table input (after aliases), or xI for input I. An xI
+  // whose I is not an input index (out of range, or too long for any integer) is reported
+  // here; other unknown names give nullopt.
+  std::optional<int> lookup(const std::string& name, bool& bad_index) {
+    bad_index = false;
     if (auto it = scope_.find(name); it != scope_.end()) return it->second;
     std::string n = name;
     if (auto it = o_.aliases.find(name); it != o_.aliases.end()) n = it->second;
@@ -385,8 +410,13 @@ class Parser {
       if (o_.input_names[i] == n) return d_.var(static_cast<int>(i));
     if (name.size() > 1 && name[0] == 'x' &&
         name.find_first_not_of("0123456789", 1) == std::string::npos) {
-      const int i = std::atoi(name.c_str() + 1);
-      if (i < static_cast<int>(o_.input_names.size())) return d_.var(i);
+      const char* first = name.data() + 1;
+      const char* last = name.data() + name.size();
+      size_t i = 0;
+      const auto [end, ec] = std::from_chars(first, last, i);
+      if (ec == std::errc() && end == last && i < o_.input_names.size())
+        return d_.var(static_cast<int>(i));
+      bad_index = true;
     }
     return std::nullopt;
   }
@@ -411,11 +441,19 @@ class Parser {
                                       : "unexpected '" + tk.text + "'");
     ++p_;
     if (!isP("(")) {
-      auto v = lookup(tk.text);
+      bool bad_index = false;
+      auto v = lookup(tk.text, bad_index);
       if (!v) {
         std::string ins;
         for (const auto& s : o_.input_names) ins += (ins.empty() ? "" : ", ") + s;
         --p_;
+        if (bad_index)
+          return fail("input index '" + tk.text + "' out of range: " +
+                      (o_.input_names.empty()
+                           ? std::string("the table has no inputs")
+                           : "the table has " + std::to_string(o_.input_names.size()) +
+                                 " inputs, x0 to x" + std::to_string(o_.input_names.size() - 1) +
+                                 " (" + ins + ")"));
         return fail("unknown name '" + tk.text + "' (table inputs: " + ins +
                     "; map a formula name to an input with an alias, e.g. " + tk.text + "=" +
                     (o_.input_names.empty() ? std::string("x0") : o_.input_names[0]) + ")");
@@ -495,6 +533,7 @@ class Parser {
   std::map<std::string, int>& scope_;
   std::vector<Token> t_;
   size_t p_ = 0;
+  int depth_ = 0;
   std::string where_;
   std::string err_;
 };
@@ -512,6 +551,15 @@ Expected<ParsedFormula> parseFormula(const std::vector<std::string>& texts,
   const size_t k = opts.output_names.size();
   if (k == 0) return Status::error("formula: the table has no outputs");
   if (texts.empty()) return Status::error("formula: no expression given");
+  if (texts.size() != 1 && texts.size() != k)
+    return Status::error("expr: got " + std::to_string(texts.size()) + " expressions for " +
+                         std::to_string(k) + " outputs (" + joinNames(opts.output_names) +
+                         "); give one per output, or one that assigns every output");
+  size_t bytes = 0;
+  for (const auto& t : texts) bytes += t.size();
+  if (bytes > kMaxFormulaBytes)
+    return Status::error("expr: " + std::to_string(bytes) + " bytes, more than the limit of " +
+                         std::to_string(kMaxFormulaBytes) + " for one formula");
   for (const auto& [from, to] : opts.aliases)
     if (std::find(opts.input_names.begin(), opts.input_names.end(), to) == opts.input_names.end())
       return Status::error("alias " + from + "=" + to + ": '" + to +

@@ -52,6 +52,30 @@ bool sameNode(const Node& a, const Node& b) {
 }
 }  // namespace
 
+namespace {
+uint64_t mix(uint64_t h, uint64_t v) {  // splitmix64's finaliser over h ^ v
+  uint64_t z = (h ^ v) + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+// Consistent with sameNode: equal nodes hash alike.
+uint64_t nodeHash(const Node& n) {
+  uint64_t h = static_cast<uint64_t>(n.kind);
+  switch (n.kind) {
+    case Node::Kind::Var:
+      return mix(h, static_cast<uint64_t>(static_cast<uint32_t>(n.index)));
+    case Node::Kind::Const:
+      return mix(h, std::bit_cast<uint64_t>(n.value));
+    case Node::Kind::Op:
+      h = mix(h, static_cast<uint64_t>(n.op));
+      for (int a : n.args) h = mix(h, static_cast<uint64_t>(static_cast<uint32_t>(a)));
+      return h;
+  }
+  return h;
+}
+}  // namespace
+
 int Dag::add(const Node& n) {
   Node c = n;
   if (c.kind == Node::Kind::Op) {
@@ -59,8 +83,26 @@ int Dag::add(const Node& n) {
   } else {
     c.args = {-1, -1, -1, -1};
   }
-  for (size_t i = 0; i < nodes.size(); ++i)
-    if (sameNode(nodes[i], c)) return static_cast<int>(i);
+  if (nodes.size() < kLinearProbeNodes) {
+    for (size_t i = 0; i < nodes.size(); ++i)
+      if (sameNode(nodes[i], c)) return static_cast<int>(i);
+  } else {
+    if (indexed_ > nodes.size()) {  // nodes were replaced: start again
+      index_.clear();
+      indexed_ = 0;
+    }
+    for (; indexed_ < nodes.size(); ++indexed_)
+      index_.emplace(nodeHash(nodes[indexed_]), static_cast<int>(indexed_));
+    auto [lo, hi] = index_.equal_range(nodeHash(c));
+    int found = -1;
+    for (auto it = lo; it != hi; ++it) {
+      const int id = it->second;
+      if (static_cast<size_t>(id) < nodes.size() && sameNode(nodes[id], c) &&
+          (found < 0 || id < found))
+        found = id;  // the first identical node, as the linear probe finds it
+    }
+    if (found >= 0) return found;
+  }
   nodes.push_back(c);
   return static_cast<int>(nodes.size() - 1);
 }
@@ -170,6 +212,21 @@ Dag buildDag(const Program& p, int num_inputs) {
 }
 
 Expected<LinearProgram> toProgram(const Dag& src) {
+  // Operands must name earlier nodes and inputs must be operand indices: a DAG that breaks
+  // this (built by hand) is refused rather than read out of bounds.
+  for (size_t i = 0; i < src.nodes.size(); ++i) {
+    const Node& n = src.nodes[i];
+    if (n.kind == Node::Kind::Var && (n.index < 0 || n.index > 255))
+      return Status::error("input x" + std::to_string(n.index) + " out of range (0 to 255)");
+    if (n.isOp())
+      for (int k = 0; k < arity(n.op); ++k)
+        if (n.args[k] < 0 || static_cast<size_t>(n.args[k]) >= i)
+          return Status::error("DAG node " + std::to_string(i) + ": operand " +
+                               std::to_string(n.args[k]) + " is not an earlier node");
+  }
+  for (int o : src.outputs)
+    if (o < 0 || static_cast<size_t>(o) >= src.nodes.size())
+      return Status::error("DAG output " + std::to_string(o) + " is not a node");
   Dag d = src;
   // Outputs must be distinct opcodes: a leaf output, or one that repeats an earlier output,
   // gets its own `add(x, -0)` (appended without hash-consing, so copies stay distinct).
@@ -198,11 +255,29 @@ Expected<LinearProgram> toProgram(const Dag& src) {
   for (int o : d.outputs) is_output[o] = 1;
   // Post-order from the outputs' operands first, outputs last, so that outputs are the last
   // k opcodes whenever no output feeds another.
-  std::function<void(int)> visit = [&](int id) {
-    if (slot[id] >= 0 || !d.nodes[id].isOp()) return;
-    for (int k = 0; k < arity(d.nodes[id].op); ++k) visit(d.nodes[id].args[k]);
-    slot[id] = static_cast<int>(order.size());
-    order.push_back(id);
+  // (Iterative: a DAG parsed from a long text can be thousands of nodes deep.)
+  std::vector<std::pair<int, int>> stack;  // node, next operand to visit
+  auto visit = [&](int root) {
+    auto enter = [&](int id) {
+      if (slot[id] < 0 && d.nodes[id].isOp()) stack.emplace_back(id, 0);
+    };
+    enter(root);
+    while (!stack.empty()) {
+      const int id = stack.back().first;
+      if (slot[id] >= 0) {
+        stack.pop_back();
+        continue;
+      }
+      const int k = stack.back().second;
+      if (k < arity(d.nodes[id].op)) {
+        ++stack.back().second;
+        enter(d.nodes[id].args[k]);
+        continue;
+      }
+      slot[id] = static_cast<int>(order.size());
+      order.push_back(id);
+      stack.pop_back();
+    }
   };
   for (int o : d.outputs)
     for (int k = 0; k < arity(d.nodes[o].op); ++k) visit(d.nodes[o].args[k]);
@@ -254,8 +329,9 @@ std::vector<Interval> nodeIntervals(const Dag& d, const std::vector<Interval>& d
     const Node& n = d.nodes[i];
     switch (n.kind) {
       case Node::Kind::Var:
-        iv[i] =
-            n.index < static_cast<int>(domain.size()) ? inputInterval(domain[n.index]) : Interval{};
+        iv[i] = n.index >= 0 && n.index < static_cast<int>(domain.size())
+                    ? inputInterval(domain[n.index])
+                    : Interval{};
         break;
       case Node::Kind::Const:
         iv[i] = Interval{n.value, n.value, std::isnan(n.value)};
@@ -315,8 +391,10 @@ std::vector<double> evaluateRow(const Dag& d, const double* inputs, Precision p)
   for (size_t i = 0; i < d.nodes.size(); ++i) {
     const Node& n = d.nodes[i];
     switch (n.kind) {
-      case Node::Kind::Var:
-        v[i] = roundIn(p, inputs[n.index]);
+      case Node::Kind::Var:  // an input the DAG does not have reads as NaN, not out of bounds
+        v[i] = n.index >= 0 && (d.num_inputs <= 0 || n.index < d.num_inputs)
+                   ? roundIn(p, inputs[n.index])
+                   : std::nan("");
         break;
       case Node::Kind::Const:
         v[i] = roundIn(p, n.value);

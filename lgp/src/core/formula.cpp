@@ -93,8 +93,9 @@ class Printer {
   Term term(int id) const {
     const Node& n = d_.nodes[id];
     if (n.kind == Node::Kind::Var)
-      return Term{n.index < static_cast<int>(inputs_.size()) ? inputs_[n.index]
-                                                             : "x" + std::to_string(n.index),
+      return Term{n.index >= 0 && n.index < static_cast<int>(inputs_.size())
+                      ? inputs_[n.index]
+                      : "x" + std::to_string(n.index),
                   kAtom, false, false};
     if (n.kind == Node::Kind::Const) return constantTerm(n.value);
     const auto& a = n.args;
@@ -257,6 +258,21 @@ std::string outputName(const std::vector<std::string>& names, size_t j) {
   return j < names.size() ? names[j] : "y" + std::to_string(j);
 }
 
+// Operands name earlier nodes, outputs name nodes: what the printer relies on. A DAG built
+// by hand that breaks it prints as "<malformed DAG>" instead of being read out of bounds.
+bool wellFormed(const Dag& d) {
+  for (size_t i = 0; i < d.nodes.size(); ++i) {
+    const Node& n = d.nodes[i];
+    if (n.isOp())
+      for (int k = 0; k < arity(n.op); ++k)
+        if (n.args[k] < 0 || static_cast<size_t>(n.args[k]) >= i) return false;
+  }
+  for (int o : d.outputs)
+    if (o < 0 || static_cast<size_t>(o) >= d.nodes.size()) return false;
+  return true;
+}
+constexpr const char* kMalformed = "<malformed DAG>";
+
 }  // namespace
 
 std::string Formula::text() const {
@@ -267,6 +283,12 @@ std::string Formula::text() const {
 
 Formula printFormula(const Dag& d, const std::vector<std::string>& input_names,
                      const std::vector<std::string>& output_names) {
+  if (!wellFormed(d)) {
+    Formula f;
+    for (size_t j = 0; j < d.outputs.size(); ++j)
+      f.statements.push_back({outputName(output_names, j), kMalformed, static_cast<int>(j)});
+    return f;
+  }
   auto uses = d.useCounts();
   const auto live = d.reachable();
   printedUses(d, live, uses);
@@ -289,6 +311,7 @@ Formula printFormula(const Dag& d, const std::vector<std::string>& input_names,
 
 std::vector<std::string> printOutputs(const Dag& d, const std::vector<std::string>& input_names) {
   std::vector<std::string> result;
+  if (!wellFormed(d)) return std::vector<std::string>(d.outputs.size(), kMalformed);
   const size_t n = d.nodes.size();
   for (int out : d.outputs) {
     // Uses within this output's sub-DAG only, so that the text stands alone.

@@ -38,7 +38,23 @@
 // must be assigned (matched by name; the last assignment wins), or the last statement is a
 // k-component vector, or the text has exactly k bare expressions (matched by position).
 // All texts share one scope, in order, so a later output may use an earlier output's names.
+//
+// Limits (emit/README.md, "Limits"). Input beyond one is refused with a message that names
+// it, before any work that grows with it; nothing the parser is given can crash it:
+//   kMaxFormulaBytes   = 65536 bytes: the texts of one formula together. A program has at
+//                        most 255 opcodes, which print in a few kilobytes.
+//   kMaxFormulaNesting = 256 levels: parentheses, function-call arguments, unary signs and
+//                        '? :' branches open at one point of the text (the parser is
+//                        recursive descent; this bounds its stack).
+//   xI                 = 0 <= I < number of table inputs, read without overflow
+//                        ("x2147483648" is out of range, never a negative index).
+//   program size       = at most 255 opcodes and 255 distinct constants after folding and
+//                        merging (lgp/core/program.hpp), checked when the DAG is linearised.
+//   texts              = 1 or k (one per output); any other count is refused before parsing.
+// Parsing is linear in the length of the text (the DAG's hash-consing is by a hash index).
 #pragma once
+
+#include <cstddef>
 
 #include <map>
 #include <string>
@@ -49,6 +65,9 @@
 #include "lgp/emit/dag.hpp"
 
 namespace lgp::emit {
+
+inline constexpr size_t kMaxFormulaBytes = 65536;
+inline constexpr int kMaxFormulaNesting = 256;
 
 struct ParseOptions {
   std::vector<std::string> input_names;        // table inputs

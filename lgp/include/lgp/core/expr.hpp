@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "lgp/core/interval.hpp"
@@ -46,8 +47,9 @@ struct Dag {
   std::vector<int> outputs;  // node id per output
   int num_inputs = 0;
 
-  // Adds a node, or returns the id of an identical existing one (hash-consing by a linear
-  // probe over nodes; DAGs here have at most a few hundred nodes).
+  // Adds a node, or returns the id of an identical existing one (hash-consing: a linear
+  // probe while the DAG is small, a hash index beyond kLinearProbeNodes nodes, so building
+  // a DAG of n nodes is O(n) however long the parsed text was).
   int add(const Node& n);
   int var(int index);
   int constant(double v);
@@ -59,6 +61,14 @@ struct Dag {
   // A copy with only reachable nodes, renumbered (order kept).
   Dag compact() const;
   int numOps() const;
+
+  static constexpr size_t kLinearProbeNodes = 64;
+
+ private:
+  // Hash of node -> id, covering nodes[0, indexed_); nodes appended directly (toProgram's
+  // distinct output copies) are indexed on the next add. Entries are verified on a hit.
+  std::unordered_multimap<uint64_t, int> index_;
+  size_t indexed_ = 0;
 };
 
 // Effective opcodes of `p` as a DAG; duplicates merged. Constant slots become Const nodes.
