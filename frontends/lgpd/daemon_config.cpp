@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cstring>
+#include <tuple>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/program.hpp"
 
 namespace lgpd {
 
@@ -27,11 +29,48 @@ Status DaemonConfig::validate() const {
   if (mpi.max_np < 1 || mpi.max_np > 4096)
     return Status::error("/mpi/max_np: must be in [1, 4096]");
   if (!(mpi.stop_grace_s > 0)) return Status::error("/mpi/stop_grace_s: must be a number > 0");
+  if (max_connections_per_client != 0 &&
+      (max_connections_per_client < 1 || max_connections_per_client >= http_threads))
+    return Status::error("/max_connections_per_client: must be in [1, http_threads - 1] (" +
+                         std::to_string(http_threads - 1) + "), or 0 for http_threads / 2 (got " +
+                         std::to_string(max_connections_per_client) + ")");
+  for (auto [key, v, lo, hi] :
+       {std::tuple{"read_timeout_s", read_timeout_s, 0.1, 3600.0},
+        std::tuple{"request_timeout_s", request_timeout_s, 1.0, 86400.0},
+        std::tuple{"write_timeout_s", write_timeout_s, 1.0, 86400.0},
+        std::tuple{"keep_alive_timeout_s", keep_alive_timeout_s, 1.0, 3600.0}})
+    if (!(v >= lo && v <= hi))
+      return Status::error(std::string("/") + key + ": must be a number in [" +
+                           lgp::formatDouble(lo) + ", " + lgp::formatDouble(hi) + "] (got " +
+                           lgp::formatDouble(v) + ")");
+  if (keep_alive_max_requests < 1 || keep_alive_max_requests > 100000)
+    return Status::error("/keep_alive_max_requests: must be in [1, 100000]");
   auto addr = parseListen(listen);
   if (!addr) return Status::error("/listen: " + addr.error());
-  if (!isLoopbackHost(addr->host) && token.size() < 16)
+  if (auto s = checkToken(token); !s) return s;
+  if (!isLoopbackHost(addr->host) && token.empty())
     return Status::error("/token: a non-loopback listen address (" + addr->host +
-                         ") requires a bearer token of at least 16 characters");
+                         ") requires a bearer token of at least " +
+                         std::to_string(kMinTokenCharacters) + " non-space characters");
+  return Status::ok();
+}
+
+int DaemonConfig::connectionsPerClient() const {
+  return max_connections_per_client > 0 ? max_connections_per_client
+                                        : std::max(1, http_threads / 2);
+}
+
+Status checkToken(const std::string& token) {
+  if (token.empty()) return Status::ok();
+  size_t visible = 0;
+  for (unsigned char c : token) {
+    if (c < 0x20 || c == 0x7f)
+      return Status::error("/token: control characters are not allowed in a token");
+    if (c != ' ') ++visible;
+  }
+  if (visible < kMinTokenCharacters)
+    return Status::error("/token: must have at least " + std::to_string(kMinTokenCharacters) +
+                         " non-space characters (has " + std::to_string(visible) + ")");
   return Status::ok();
 }
 
@@ -150,7 +189,8 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
   lgp::JsonObjectReader keys(j, "");
   keys.allow({"data_dir", "listen", "max_jobs", "checkpoint_interval_s", "progress_interval_s",
               "front_interval_s", "token", "max_body_bytes", "data_base_dir", "allowed_data_dirs",
-              "http_threads", "mpi"});
+              "http_threads", "max_connections_per_client", "read_timeout_s", "request_timeout_s",
+              "write_timeout_s", "keep_alive_timeout_s", "keep_alive_max_requests", "mpi"});
   if (auto k = keys.unknownKey()) return Status::error(lgp::jsonError(*k, "unknown key"));
   Status s;
   std::string str;
@@ -204,6 +244,20 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
           return r;
         })))
     return s;
+  auto intField = [&](const char* key, int64_t lo, int& out) {
+    return field(j, key, [&](auto& v, auto p) {
+      auto r = integer(v, p, lo, i);
+      if (r) out = static_cast<int>(std::min<int64_t>(i, 1 << 20));
+      return r;
+    });
+  };
+  if (!(s = intField("max_connections_per_client", 0, cfg.max_connections_per_client))) return s;
+  if (!(s = intField("keep_alive_max_requests", 1, cfg.keep_alive_max_requests))) return s;
+  for (auto [key, out] : {std::pair<const char*, double*>{"read_timeout_s", &cfg.read_timeout_s},
+                          {"request_timeout_s", &cfg.request_timeout_s},
+                          {"write_timeout_s", &cfg.write_timeout_s},
+                          {"keep_alive_timeout_s", &cfg.keep_alive_timeout_s}})
+    if (!(s = field(j, key, [&](auto& v, auto p) { return number(v, p, *out); }))) return s;
   if (!(s = field(j, "mpi", [&](auto& v, auto p) { return applyMpiJson(v, p, cfg.mpi); })))
     return s;
   return Status::ok();

@@ -33,13 +33,24 @@ struct DaemonConfig {
   double checkpoint_interval_s = 60;      // seconds between checkpoints of a running job (> 0)
   double progress_interval_s = 1;         // seconds between progress rows (>= 0; 0 = every gen)
   double front_interval_s = 10;           // seconds between live front snapshots (>= 0)
-  std::string token;                      // bearer token; required for a non-loopback listen
+  std::string token;                      // bearer token (>= 16 non-space characters);
+                                          // required for a non-loopback listen
   size_t max_body_bytes = 16u << 20;      // request bodies above this get 413
   std::filesystem::path data_base_dir;    // relative data paths of submissions resolve here;
                                           // empty = lgpd's working directory at start
   std::vector<std::filesystem::path> allowed_data_dirs;  // if set, data files must be inside
-  int http_threads = 8;                                  // HTTP worker threads
+  int http_threads = 16;                                 // HTTP worker threads
+  // Connections one client address (an IPv6 /64) may hold at once; 0 = http_threads / 2.
+  int max_connections_per_client = 0;
+  double read_timeout_s = 5;          // longest pause inside a request
+  double request_timeout_s = 60;      // a whole request (line, headers, body) must arrive
+  double write_timeout_s = 60;        // a whole response must leave
+  double keep_alive_timeout_s = 5;    // an idle kept-alive connection is closed
+  int keep_alive_max_requests = 100;  // requests per connection
   MpiDaemonConfig mpi;
+
+  // max_connections_per_client with the default filled in.
+  int connectionsPerClient() const;
 
   // Checks every field; the message names the JSON key.
   lgp::Status validate() const;
@@ -53,6 +64,11 @@ struct ListenAddress {
 lgp::Expected<ListenAddress> parseListen(const std::string& s);
 // True for 127.0.0.0/8, ::1 and "localhost".
 bool isLoopbackHost(const std::string& host);
+
+// A bearer token must have at least this many characters other than spaces.
+inline constexpr size_t kMinTokenCharacters = 16;
+// Empty (no token) or a valid token; the message says what is wrong.
+lgp::Status checkToken(const std::string& token);
 
 // Applies the keys present in `j` over `cfg`; unknown keys and wrong types are errors that
 // name the key, e.g. "/max_jobs: must be an integer >= 1".

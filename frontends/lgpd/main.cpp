@@ -2,7 +2,11 @@
 // HTTP JSON API and a Pareto-front inspection page (README.md in this folder).
 //
 //   lgpd --data-dir DIR [--listen 127.0.0.1:8737] [--config lgpd.json] [--jobs N]
-//        [--checkpoint-interval S] [--port-file FILE]
+//        [--checkpoint-interval S] [--port-file FILE] [--init]
+//
+// A data dir with no database gets a new one on its first start. An empty, unreadable or
+// corrupt database, or a used data dir whose database is missing, stops lgpd with exit 1
+// unless --init is given (the bad file is then kept aside and a new database created).
 //
 // SIGINT/SIGTERM: the server stops, every running job checkpoints and stays "running", and
 // the next lgpd resumes it. After a kill -9 the next lgpd resumes from the last checkpoint.
@@ -18,6 +22,7 @@
 
 #include "api.hpp"
 #include "daemon_config.hpp"
+#include "files.hpp"
 #include "jobs.hpp"
 #include "omp_env.hpp"
 #include "store.hpp"
@@ -36,6 +41,7 @@ int run(int argc, char** argv) {
     ("progress-interval", "seconds between progress rows", cxxopts::value<double>())
     ("front-interval", "seconds between live front snapshots", cxxopts::value<double>())
     ("port-file", "write the bound port to this file once listening", cxxopts::value<std::string>())
+    ("init", "create a new database where it is missing from a used data dir, empty or unreadable (the old file is kept aside)")
     ("log-level", "trace|debug|info|warn|error", cxxopts::value<std::string>()->default_value("info"))
     ("h,help", "this help");
   // clang-format on
@@ -48,19 +54,14 @@ int run(int argc, char** argv) {
 
   lgpd::DaemonConfig cfg;
   if (args.count("config")) {
-    std::ifstream f(args["config"].as<std::string>());
-    if (!f) {
-      std::fprintf(stderr, "error: cannot read %s\n", args["config"].as<std::string>().c_str());
+    // The same limits as a request body: depth, numbers, duplicate keys (the message names
+    // the byte or the key).
+    auto j = lgpd::readJsonDocument(args["config"].as<std::string>(), size_t{1} << 20);
+    if (!j) {
+      std::fprintf(stderr, "error: %s\n", j.error().c_str());
       return 2;
     }
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(f);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "error: %s: %s\n", args["config"].as<std::string>().c_str(), e.what());
-      return 2;
-    }
-    if (auto s = lgpd::applyDaemonConfigJson(j, cfg); !s) {
+    if (auto s = lgpd::applyDaemonConfigJson(*j, cfg); !s) {
       std::fprintf(stderr, "error: %s: %s\n", args["config"].as<std::string>().c_str(),
                    s.message().c_str());
       return 2;
@@ -88,7 +89,7 @@ int run(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 
-  auto store = lgpd::Store::open(cfg.data_dir);
+  auto store = lgpd::Store::open(cfg.data_dir, args.count("init") > 0);
   if (!store) {
     std::fprintf(stderr, "error: %s\n", store.error().c_str());
     return 1;

@@ -1,5 +1,7 @@
 #include "mpi_launch.hpp"
 
+#include <spdlog/spdlog.h>
+
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
@@ -15,6 +17,8 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
+
+#include "files.hpp"
 
 extern char** environ;
 
@@ -267,11 +271,16 @@ std::string fileTail(const fs::path& p, size_t max_lines, size_t max_bytes) {
 }
 
 std::optional<json> readJsonFile(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  if (!f) return std::nullopt;
-  json j = json::parse(f, nullptr, false);
-  if (j.is_discarded()) return std::nullopt;
-  return j;
+  std::error_code ec;
+  if (!fs::exists(p, ec)) return std::nullopt;
+  // The child writes these files, but they are read with the limits of a request body all
+  // the same (depth, size, numbers, duplicate keys), and never from a FIFO.
+  auto j = readJsonDocument(p, kMaxChildJsonBytes);
+  if (!j) {
+    spdlog::warn("{}", j.error());
+    return std::nullopt;
+  }
+  return std::move(*j);
 }
 
 FileVersion FileVersion::of(const fs::path& p) {

@@ -90,8 +90,10 @@ class ChildProcess {
 std::string describeWaitStatus(int wait_status);
 // The last `max_lines` lines of a text file, at most `max_bytes` of them; "" if unreadable.
 std::string fileTail(const std::filesystem::path& p, size_t max_lines, size_t max_bytes);
-// Reads and parses a JSON file that its writer replaces atomically; nullopt if it is missing
-// or does not parse.
+// Reads and parses a JSON file that its writer replaces atomically, with lgp::parseJson's
+// limits and at most kMaxChildJsonBytes; nullopt if it is missing, not a regular file or
+// does not parse (logged).
+inline constexpr size_t kMaxChildJsonBytes = size_t{1} << 28;
 std::optional<nlohmann::json> readJsonFile(const std::filesystem::path& p);
 
 // Identifies one version of a file that is replaced by rename: a change of inode, size or

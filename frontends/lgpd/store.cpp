@@ -2,8 +2,14 @@
 
 #include <sqlite3.h>
 
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <limits>
 
 namespace lgpd {
@@ -65,7 +71,8 @@ CREATE TABLE IF NOT EXISTS runs (
   front_size INTEGER NOT NULL DEFAULT 0,
   best_error REAL,
   best TEXT NOT NULL DEFAULT '{}',
-  stop_reason TEXT NOT NULL DEFAULT ''
+  stop_reason TEXT NOT NULL DEFAULT '',
+  start_attempts INTEGER NOT NULL DEFAULT 0
 );
 CREATE TABLE IF NOT EXISTS checkpoints (
   run_id TEXT PRIMARY KEY REFERENCES runs(id) ON DELETE CASCADE,
@@ -226,7 +233,7 @@ constexpr const char* kRunColumns =
     "cancel_requested, resumes, generation, evaluations, elapsed_s, evals_per_s, front_size, "
     "best_error, best, stop_reason, "
     "(SELECT generation FROM checkpoints c WHERE c.run_id = runs.id), "
-    "(SELECT created_at FROM checkpoints c WHERE c.run_id = runs.id)";
+    "(SELECT created_at FROM checkpoints c WHERE c.run_id = runs.id), start_attempts";
 
 Expected<RunRecord> readRun(const Stmt& st) {
   RunRecord r;
@@ -260,6 +267,7 @@ Expected<RunRecord> readRun(const Stmt& st) {
   r.counters.stop_reason = st.text(18);
   r.checkpoint_generation = st.isNull(19) ? -1 : static_cast<int>(st.i64(19));
   r.checkpoint_at = st.isNull(20) ? 0 : st.real(20);
+  r.start_attempts = static_cast<int>(st.i64(21));
   return r;
 }
 
@@ -335,16 +343,133 @@ class Store::Lease {
   Lease lease(*this);     \
   if (!lease.db()) return lease.status();
 
-Expected<std::unique_ptr<Store>> Store::open(const std::filesystem::path& dir) {
+namespace {
+
+namespace fs = std::filesystem;
+
+// What is wrong with an existing database file, before SQLite opens (and maybe rewrites) it:
+// not a file, empty, unreadable, or without the SQLite header.
+Status checkDatabaseFile(const fs::path& p) {
+  const std::string name = p.string();
   std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
+  const auto st = fs::symlink_status(p, ec);
+  if (fs::is_symlink(st)) return checkDatabaseFile(fs::read_symlink(p, ec));
+  if (!fs::is_regular_file(st)) return Status::error(name + " is not a regular file");
+  if (::access(name.c_str(), R_OK | W_OK) != 0)
+    return Status::error(name + " cannot be read and written by lgpd: " + std::strerror(errno));
+  const auto size = fs::file_size(p, ec);
+  if (ec) return Status::error(name + ": " + ec.message());
+  if (size == 0) return Status::error(name + " is empty (0 bytes)");
+  std::ifstream f(p, std::ios::binary);
+  char head[16] = {0};
+  if (!f.read(head, sizeof head) || std::memcmp(head, "SQLite format 3", 16) != 0)
+    return Status::error(name + " is not an SQLite database (its header is " +
+                         (f ? "wrong" : "cut short") + ": a corrupt or foreign file)");
+  return Status::ok();
+}
+
+// The database is lgpd's and intact: its meta row and SQLite's quick_check.
+Status checkDatabaseContent(sqlite3* db, const fs::path& p) {
+  {
+    Stmt st(db, "SELECT value FROM meta WHERE key = 'schema'");
+    if (!st.ok())
+      return Status::error(p.string() + " is not an lgpd database (" + sqlite3_errmsg(db) + ")");
+    if (st.step() != SQLITE_ROW)
+      return Status::error(p.string() + " is not an lgpd database (no schema entry)");
+    if (st.text(0) != "lgpd/1")
+      return Status::error(p.string() + " has schema '" + st.text(0) +
+                           "', which this lgpd does not read (lgpd/1)");
+  }
+  Stmt st(db, "PRAGMA quick_check");
+  if (!st.ok()) return Status::error(p.string() + " is corrupt: " + sqlite3_errmsg(db));
+  std::string problems;
+  while (st.step() == SQLITE_ROW) {
+    if (st.text(0) == "ok") continue;
+    if (!problems.empty()) problems += "; ";
+    problems += st.text(0);
+    if (problems.size() > 400) break;
+  }
+  if (st.rc() != SQLITE_DONE && st.rc() != SQLITE_ROW && problems.empty())
+    problems = sqlite3_errmsg(db);
+  if (!problems.empty()) return Status::error(p.string() + " is corrupt: " + problems);
+  return Status::ok();
+}
+
+// Columns added after the first release of the schema.
+Status migrate(sqlite3* db) {
+  bool has_attempts = false;
+  Stmt st(db, "PRAGMA table_info(runs)");
+  if (!st.ok()) return sqlError(db, "table_info");
+  while (st.step() == SQLITE_ROW)
+    if (st.text(1) == "start_attempts") has_attempts = true;
+  if (!has_attempts)
+    return exec(db, "ALTER TABLE runs ADD COLUMN start_attempts INTEGER NOT NULL DEFAULT 0");
+  return Status::ok();
+}
+
+// Moves a bad database (and its -wal/-shm) aside as <name>.broken-<unix time>.
+Expected<fs::path> moveAside(const fs::path& p) {
+  const std::string suffix = ".broken-" + std::to_string(static_cast<int64_t>(unixNow()));
+  fs::path to = p;
+  to += suffix;
+  std::error_code ec;
+  fs::rename(p, to, ec);
+  if (ec) return Status::error("cannot move " + p.string() + " aside: " + ec.message());
+  for (const char* side : {"-wal", "-shm"}) {
+    fs::path from = p, dest = to;
+    from += side;
+    dest += side;
+    if (fs::exists(from, ec)) fs::rename(from, dest, ec);
+  }
+  return to;
+}
+
+}  // namespace
+
+Expected<std::unique_ptr<Store>> Store::open(const fs::path& dir, bool init) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
   if (ec) return Status::error("cannot create data dir " + dir.string() + ": " + ec.message());
-  std::unique_ptr<Store> s(new Store(dir / "lgpd.sqlite3"));
+  const fs::path path = dir / "lgpd.sqlite3";
+  const std::string hint =
+      "; start lgpd with --init to keep it aside and begin with an empty "
+      "database";
+  bool fresh = false;
+  if (!fs::exists(fs::symlink_status(path, ec))) {
+    // A data dir that lgpd has used (it holds tables/ or mpi/) lost its database: every run
+    // would vanish without a word.
+    if (!init && (fs::exists(dir / "tables", ec) || fs::exists(dir / "mpi", ec)))
+      return Status::error("the data dir " + dir.string() + " has been used by lgpd but " +
+                           path.string() + " is missing" + hint);
+    fresh = true;
+  } else if (auto bad = checkDatabaseFile(path); !bad) {
+    if (!init) return Status::error(bad.message() + hint);
+    auto moved = moveAside(path);
+    if (!moved) return moved.status();
+    spdlog::warn("{}; kept as {}, starting with an empty database", bad.message(), moved->string());
+    fresh = true;
+  }
+  std::unique_ptr<Store> s(new Store(path));
   auto db = s->acquire();
-  if (!db) return db.status();
-  Status st = exec(*db, kSchema);
+  if (!db) return Status::error(db.error() + (fresh ? "" : hint));
+  Status st = fresh ? Status::ok() : checkDatabaseContent(*db, path);
+  if (!st && init) {
+    s->release(*db);
+    s.reset();
+    auto moved = moveAside(path);
+    if (!moved) return moved.status();
+    spdlog::warn("{}; kept as {}, starting with an empty database", st.message(), moved->string());
+    return open(dir, false);
+  }
+  if (!st) {
+    s->release(*db);
+    return Status::error(st.message() + hint);
+  }
+  st = exec(*db, kSchema);
+  if (st) st = migrate(*db);
   s->release(*db);
   if (!st) return st;
+  if (fresh) spdlog::info("created a new database {}", path.string());
   return s;
 }
 
@@ -474,6 +599,34 @@ Status Store::markStarted(const std::string& id, bool resumed, int generation) {
   c.best_error = std::numeric_limits<double>::quiet_NaN();
   if (auto s = addHistory(l.db(), id, c, resumed ? "resumed" : "started"); !s) return s;
   return tx.commit();
+}
+
+Expected<int> Store::beginStart(const std::string& id) {
+  LGPD_LEASE(l);
+  Transaction tx(l.db());
+  if (!tx.began()) return tx.began();
+  Stmt up(l.db(), "UPDATE runs SET start_attempts = start_attempts + 1 WHERE id = ?1");
+  up.bind(1, id);
+  if (auto s = run(l.db(), up, "begin start"); !s) return s;
+  int n = 0;
+  {
+    Stmt st(l.db(), "SELECT start_attempts FROM runs WHERE id = ?1");
+    if (!st.ok()) return sqlError(l.db(), "prepare begin start");
+    st.bind(1, id);
+    int rc = st.step();
+    if (rc == SQLITE_DONE) return Status::error("no run " + id);
+    if (rc != SQLITE_ROW) return sqlError(l.db(), "begin start");
+    n = static_cast<int>(st.i64(0));
+  }
+  if (auto s = tx.commit(); !s) return s;
+  return n;
+}
+
+Status Store::endStart(const std::string& id) {
+  LGPD_LEASE(l);
+  Stmt st(l.db(), "UPDATE runs SET start_attempts = 0 WHERE id = ?1 AND start_attempts != 0");
+  st.bind(1, id);
+  return run(l.db(), st, "end start");
 }
 
 Status Store::requestCancel(const std::string& id) {

@@ -57,6 +57,7 @@ struct RunRecord {
   int resumes = 0;                 // times resumed after a daemon restart
   int checkpoint_generation = -1;  // generation of the latest checkpoint; -1 = none
   double checkpoint_at = 0;
+  int start_attempts = 0;  // job starts since the last one that got through its first step
   RunCounters counters;
 };
 
@@ -78,8 +79,12 @@ struct ProgressRow {
 
 class Store {
  public:
-  // Opens (creating if needed) DIR/lgpd.sqlite3 and its schema.
-  static lgp::Expected<std::unique_ptr<Store>> open(const std::filesystem::path& dir);
+  // Opens DIR/lgpd.sqlite3 and its schema. A data dir without a database gets a new one,
+  // unless lgpd has used it before (it holds tables/ or mpi/). A database file that is empty,
+  // unreadable, not SQLite, not lgpd's or fails SQLite's quick_check is an error; with `init`
+  // it is moved aside (lgpd.sqlite3.broken-<unix time>) and a new database is created.
+  static lgp::Expected<std::unique_ptr<Store>> open(const std::filesystem::path& dir,
+                                                    bool init = false);
   ~Store();
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
@@ -97,6 +102,12 @@ class Store {
   lgp::Expected<std::vector<std::string>> runningRuns();
 
   lgp::Status markStarted(const std::string& id, bool resumed, int generation);
+  // A job starts the run: counts the attempt, durably, before anything of the run is loaded.
+  // Returns the number of attempts since the last endStart(); a run whose starts keep
+  // taking the daemon down shows a growing count.
+  lgp::Expected<int> beginStart(const std::string& id);
+  // The run got through its start (table, references, seeds, its first generation).
+  lgp::Status endStart(const std::string& id);
   lgp::Status requestCancel(const std::string& id);
   // running -> queued, keeping the checkpoint (more interrupted runs than job slots).
   lgp::Status requeue(const std::string& id);
