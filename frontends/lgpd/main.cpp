@@ -23,6 +23,7 @@
 #include "api.hpp"
 #include "daemon_config.hpp"
 #include "files.hpp"
+#include "http_server.hpp"
 #include "jobs.hpp"
 #include "omp_env.hpp"
 #include "store.hpp"
@@ -97,7 +98,15 @@ int run(int argc, char** argv) {
   spdlog::info("state in {}", (*store)->path().string());
 
   lgpd::JobManager jobs(**store, cfg);
-  httplib::Server server;
+  lgpd::HttpLimits limits;
+  limits.max_connections_per_client = cfg.connectionsPerClient();
+  limits.read_timeout_s = cfg.read_timeout_s;
+  limits.request_timeout_s = cfg.request_timeout_s;
+  limits.write_timeout_s = cfg.write_timeout_s;
+  limits.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
+  limits.keep_alive_max_requests = cfg.keep_alive_max_requests;
+  limits.max_request_bytes = cfg.max_body_bytes;
+  lgpd::HttpServer server(limits);
   const int http_threads = cfg.http_threads;
   server.new_task_queue = [http_threads] { return new httplib::ThreadPool(http_threads); };
   lgpd::installApi(server, **store, jobs);
@@ -113,6 +122,7 @@ int run(int argc, char** argv) {
     std::fprintf(stderr, "error: cannot listen on %s\n", cfg.listen.c_str());
     return 1;
   }
+  server.widenListenBacklog();
   if (auto s = jobs.start(); !s) {
     std::fprintf(stderr, "error: %s\n", s.message().c_str());
     return 1;
@@ -126,10 +136,12 @@ int run(int argc, char** argv) {
     }
     std::rename((path + ".tmp").c_str(), path.c_str());
   }
-  spdlog::info("listening on http://{}:{} ({} job slot(s), checkpoint every {} s{})",
-               addr->host.find(':') != std::string::npos ? "[" + addr->host + "]" : addr->host,
-               port, cfg.max_jobs, cfg.checkpoint_interval_s,
-               cfg.token.empty() ? "" : ", bearer token required");
+  spdlog::info(
+      "listening on http://{}:{} ({} job slot(s), checkpoint every {} s, {} HTTP workers, at "
+      "most {} connections per client{})",
+      addr->host.find(':') != std::string::npos ? "[" + addr->host + "]" : addr->host, port,
+      cfg.max_jobs, cfg.checkpoint_interval_s, cfg.http_threads, cfg.connectionsPerClient(),
+      cfg.token.empty() ? "" : ", bearer token required");
 
   std::thread signals([&server, sigs] {
     int sig = 0;
