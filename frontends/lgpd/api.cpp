@@ -3,12 +3,16 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <mutex>
 #include <string_view>
 
+#include "http_server.hpp"
+#include "lgp/config/json_reader.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/io/result.hpp"
@@ -26,7 +30,11 @@ namespace {
 
 constexpr size_t kDefaultResidualRows = 65536;
 constexpr size_t kMaxHistoryRows = 5000;
-constexpr size_t kMaxScoredReferenceRuns = 256;  // runs whose scored references are kept
+// How long a request waits for work done on the background thread (a table being loaded,
+// references being scored) before it is answered without it.
+constexpr auto kTableWait = std::chrono::milliseconds(2000);
+constexpr auto kReferencesWait = std::chrono::milliseconds(1000);
+constexpr int kRetryAfterS = 2;
 
 void sendJson(httplib::Response& res, int status, const json& body) {
   res.status = status;
@@ -39,6 +47,35 @@ void sendError(httplib::Response& res, int status, const std::string& msg,
   json body = {{"error", msg}, {"status", status}};
   if (!field.empty()) body["field"] = field;
   sendJson(res, status, body);
+}
+
+// An error answer after which the connection is closed: the request's body (or what the
+// client sends next) is not read.
+void sendErrorAndClose(httplib::Response& res, int status, const std::string& msg) {
+  closeConnectionAfterResponse();
+  res.set_header("Connection", "close");
+  sendError(res, status, msg);
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  const size_t b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
+}
+
+// The media type of a Content-Type header, without parameters, in lower case.
+std::string mediaType(const std::string& content_type) {
+  return lower(trim(content_type.substr(0, content_type.find(';'))));
+}
+
+bool isJsonMediaType(const std::string& type) {
+  return type.empty() || type == "application/json" ||
+         (type.size() > 5 && type.compare(type.size() - 5, 5, "+json") == 0);
 }
 
 // "/search/population: must be ..." -> "/search/population".
@@ -120,10 +157,13 @@ class Api {
 
   void install(httplib::Server& svr) {
     const auto& cfg = jobs_.daemonConfig();
+    max_body_ = cfg.max_body_bytes;
     svr.set_payload_max_length(cfg.max_body_bytes);
     token_ = cfg.token;
 
+    // Runs after the request line and headers are read and before any of the body is.
     svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      if (checkFraming(req, res)) return httplib::Server::HandlerResponse::Handled;
       if (token_.empty() || req.path.rfind("/api/", 0) != 0 || req.path == "/api/v1/health")
         return httplib::Server::HandlerResponse::Unhandled;
       std::string auth = req.get_header_value("Authorization");
@@ -132,12 +172,16 @@ class Api {
           constantTimeEqual(std::string_view(auth).substr(kBearer.size()), token_))
         return httplib::Server::HandlerResponse::Unhandled;
       res.set_header("WWW-Authenticate", "Bearer");
-      sendError(res, 401, "missing or wrong bearer token");
+      if (hasBody(req))
+        sendErrorAndClose(res, 401, "missing or wrong bearer token");
+      else
+        sendError(res, 401, "missing or wrong bearer token");
       return httplib::Server::HandlerResponse::Handled;
     });
     svr.set_error_handler([](const httplib::Request&, httplib::Response& res) {
       if (!res.body.empty()) return;
       std::string msg = res.status == 413   ? "request body too large"
+                        : res.status == 414 ? "request target too long"
                         : res.status == 404 ? "no such route"
                         : res.status == 400 ? "bad request"
                                             : "HTTP error " + std::to_string(res.status);
@@ -169,23 +213,139 @@ class Api {
     svr.Get("/index.html", page);
 
     svr.Get(R"(/api/v1(/.*)?)",
-            [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
-    svr.Post(R"(/api/v1(/.*)?)",
-             [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
-    svr.Delete(R"(/api/v1(/.*)?)",
-               [this](const httplib::Request& req, httplib::Response& res) { route(req, res); });
+            [this](const httplib::Request& req, httplib::Response& res) { route(req, res, ""); });
+    // Every POST and DELETE, on any path, reads its body here (cpp-httplib 0.11 would read a
+    // chunked body in full, whatever its size, before a plain handler or a 404).
+    svr.Post(".*", [this](const httplib::Request& req, httplib::Response& res,
+                          const httplib::ContentReader& reader) {
+      if (req.is_multipart_form_data())
+        return sendErrorAndClose(res, 415, "multipart bodies are not accepted");
+      const bool submit = isApi(req.path) && apiRest(req.path) == "runs";
+      if (submit && !isJsonMediaType(mediaType(req.get_header_value("Content-Type"))))
+        return sendErrorAndClose(res, 415,
+                                 "Content-Type must be application/json (got '" +
+                                     req.get_header_value("Content-Type") + "')");
+      std::string body;
+      if (!readBody(req, reader, res, body)) return;
+      if (!isApi(req.path)) return sendError(res, 404, "no such route");
+      route(req, res, body);
+    });
+    svr.Delete(".*", [this](const httplib::Request& req, httplib::Response& res,
+                            const httplib::ContentReader&) {
+      if (hasBody(req)) closeConnectionAfterResponse();  // the body is not read
+      if (!isApi(req.path)) return sendError(res, 404, "no such route");
+      route(req, res, "");
+    });
     svr.set_logger([](const httplib::Request& req, const httplib::Response& res) {
-      spdlog::debug("{} {} -> {}", req.method, req.path, res.status);
+      spdlog::debug("{} {} {} -> {}", req.remote_addr, req.method, req.path, res.status);
     });
   }
 
  private:
-  // /api/v1/<segments...>, dispatched by hand so that every malformed id is a clean 400.
-  void route(const httplib::Request& req, httplib::Response& res) {
-    std::string rest = req.path.substr(std::string_view("/api/v1").size());
+  static bool isApi(const std::string& path) {
+    return path == "/api/v1" || path.rfind("/api/v1/", 0) == 0;
+  }
+  // "/api/v1/runs/" -> "runs".
+  static std::string apiRest(const std::string& path) {
+    std::string rest = path.substr(std::string_view("/api/v1").size());
     if (!rest.empty() && rest[0] == '/') rest.erase(0, 1);
     while (!rest.empty() && rest.back() == '/') rest.pop_back();
-    auto seg = splitPath(rest);
+    return rest;
+  }
+
+  static bool hasBody(const httplib::Request& req) {
+    return req.has_header("Transfer-Encoding") ||
+           (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
+  }
+
+  // How the body is framed, checked before any of it is read. True when the request has
+  // been answered (and the connection is to be closed).
+  bool checkFraming(const httplib::Request& req, httplib::Response& res) {
+    const std::string& m = req.method;
+    if (m != "GET" && m != "HEAD" && m != "POST" && m != "DELETE") {
+      sendErrorAndClose(res, 405, "method " + m + " is not allowed (GET, HEAD, POST, DELETE)");
+      return true;
+    }
+    const size_t lengths = req.get_header_value_count("Content-Length");
+    const bool chunked = req.has_header("Transfer-Encoding");
+    if (lengths > 1) {
+      sendErrorAndClose(res, 400, "more than one Content-Length header");
+      return true;
+    }
+    uint64_t length = 0;
+    if (lengths == 1) {
+      const std::string v = trim(req.get_header_value("Content-Length"));
+      auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), length);
+      if (v.empty() || v.size() > 19 || v.find_first_not_of("0123456789") != std::string::npos ||
+          ec != std::errc() || ptr != v.data() + v.size()) {
+        sendErrorAndClose(res, 400,
+                          "invalid Content-Length '" + v.substr(0, 40) +
+                              "' (expected a decimal number of bytes)");
+        return true;
+      }
+    }
+    if (chunked) {
+      if (lengths) {
+        sendErrorAndClose(res, 400, "both Content-Length and Transfer-Encoding are given");
+        return true;
+      }
+      if (req.get_header_value_count("Transfer-Encoding") != 1 ||
+          lower(trim(req.get_header_value("Transfer-Encoding"))) != "chunked") {
+        sendErrorAndClose(res, 501,
+                          "unsupported Transfer-Encoding '" +
+                              req.get_header_value("Transfer-Encoding").substr(0, 40) +
+                              "' (only chunked)");
+        return true;
+      }
+    }
+    if ((m == "GET" || m == "HEAD") && (chunked || length > 0)) {
+      sendErrorAndClose(res, 400, "a " + m + " request has no body");
+      return true;
+    }
+    if (m == "POST" && !chunked && lengths == 0) {
+      sendErrorAndClose(res, 411,
+                        "a POST needs a Content-Length (0 for no body) or a chunked body");
+      return true;
+    }
+    if (length > max_body_) {
+      sendErrorAndClose(res, 413,
+                        "request body of " + std::to_string(length) + " bytes is larger than " +
+                            "max_body_bytes (" + std::to_string(max_body_) + ")");
+      return true;
+    }
+    return false;
+  }
+
+  // The body, at most max_body_bytes also when chunked. False when the request has been
+  // answered.
+  bool readBody(const httplib::Request&, const httplib::ContentReader& reader,
+                httplib::Response& res, std::string& body) {
+    bool too_large = false;
+    const bool ok = reader([&](const char* data, size_t n) {
+      if (body.size() + n > max_body_) {
+        too_large = true;
+        return false;
+      }
+      body.append(data, n);
+      return true;
+    });
+    if (too_large) {
+      sendErrorAndClose(
+          res, 413, "request body larger than max_body_bytes (" + std::to_string(max_body_) + ")");
+      return false;
+    }
+    if (!ok) {
+      sendErrorAndClose(res, 400,
+                        "the request body could not be read (cut short, too slow or a malformed "
+                        "chunk)");
+      return false;
+    }
+    return true;
+  }
+
+  // /api/v1/<segments...>, dispatched by hand so that every malformed id is a clean 400.
+  void route(const httplib::Request& req, httplib::Response& res, const std::string& body) {
+    auto seg = splitPath(apiRest(req.path));
     const std::string& m = req.method;
 
     if (seg.size() == 1 && seg[0] == "health") {
@@ -195,7 +355,7 @@ class Api {
     if (seg.empty() || seg[0] != "runs") return sendError(res, 404, "no such route");
     if (seg.size() == 1) {
       if (m == "GET") return listRuns(res);
-      if (m == "POST") return submit(req, res);
+      if (m == "POST") return submit(body, res);
       return methodNotAllowed(res);
     }
     const std::string& id = seg[1];
@@ -267,14 +427,18 @@ class Api {
     sendJson(res, 200, {{"runs", list}});
   }
 
-  void submit(const httplib::Request& req, httplib::Response& res) {
-    json body;
+  void submit(const std::string& text, httplib::Response& res) {
+    lgp::JsonLimits limits;
+    limits.max_bytes = max_body_;
+    auto body = lgp::parseJson(text, limits);
+    if (!body) return sendError(res, 400, "malformed JSON: " + body.error(), fieldOf(body.error()));
+    lgp::Expected<PreparedRun> prepared = lgp::Status::error("not prepared");
     try {
-      body = json::parse(req.body);
-    } catch (const json::parse_error& e) {
-      return sendError(res, 400, std::string("malformed JSON: ") + e.what());
+      prepared = jobs_.prepare(*body);
+    } catch (const json::exception& e) {
+      // A value of a type or range the config reader did not expect: the request's fault.
+      return sendError(res, 400, std::string("invalid run config: ") + e.what());
     }
-    auto prepared = jobs_.prepare(body);
     if (!prepared) return sendError(res, 400, prepared.error(), fieldOf(prepared.error()));
     auto id = jobs_.submit(std::move(*prepared));
     if (!id) return sendError(res, 500, "store error: " + id.error());
@@ -308,10 +472,6 @@ class Api {
   }
 
   void deleteRun(const std::string& id, httplib::Response& res) {
-    {
-      std::lock_guard<std::mutex> lock(refs_mu_);
-      refs_cache_.erase(id);
-    }
     auto r = jobs_.remove(id);
     if (!r) return sendError(res, 500, "store error: " + r.error());
     if (!*r) return sendError(res, 404, "no run " + id);
@@ -342,40 +502,22 @@ class Api {
     sendJson(res, 200, j);
   }
 
-  // A stored front carries the config's references as given ({"name", "expr"}); they are
-  // scored here on the run's table, as `lgp run` scores them into front.json (emit's
-  // scoreReferences: error, cost, discontinuity, formula, ...; {"name", "expr", "invalid"}
-  // for one that does not parse or score), once per run: config and table do not change.
+  // A front stored by this lgpd carries its references scored (the job scores them once, on
+  // the run's table). One stored without scores (by an older lgpd, or with references as
+  // given) is scored on the background thread, once per run; until that is done each
+  // reference comes back with "pending": true and an "invalid" that says so.
   json scoredReferences(const RunRecord& run, const json& given) {
     if (!given.is_array() || given.empty()) return given;
     bool scored = true;  // already scored (every entry has an error or an "invalid")
     for (const auto& r : given)
       if (!r.is_object() || !(r.contains("error") || r.contains("invalid"))) scored = false;
     if (scored) return given;
-#ifdef LGP_HAVE_EMIT
-    {
-      std::lock_guard<std::mutex> lock(refs_mu_);
-      if (auto it = refs_cache_.find(run.id); it != refs_cache_.end()) return it->second;
-    }
-    std::string why;
-    if (auto cfg = jobs_.config(run); !cfg) {
-      why = "stored config no longer parses: " + cfg.error();
-    } else if (auto table = jobs_.table(run); !table) {
-      why = "cannot load the run's table: " + table.error();  // not cached: may come back
-    } else {
-      json out = lgp::emit::scoreReferences(*cfg, **table);
-      std::lock_guard<std::mutex> lock(refs_mu_);
-      if (refs_cache_.size() >= kMaxScoredReferenceRuns) refs_cache_.clear();
-      refs_cache_[run.id] = out;
-      return out;
-    }
-#else
-    const std::string why = "references are not scored: this lgpd was built without lgp::emit";
-#endif
+    if (auto refs = jobs_.scoredReferences(run, kReferencesWait)) return *refs;
     json out = json::array();
     for (const auto& r : given) {
       json e = r.is_object() ? r : json{{"name", "(reference)"}};
-      e["invalid"] = why;
+      e["invalid"] = "being scored by lgpd; reload in a moment";
+      e["pending"] = true;
       out.push_back(std::move(e));
     }
     return out;
@@ -442,7 +584,17 @@ class Api {
     }
     auto cfg = jobs_.config(*run);
     if (!cfg) return sendError(res, 500, "stored config no longer parses: " + cfg.error());
-    auto table = jobs_.table(*run);
+    // Loading (or generating) a table is not for an HTTP worker: the background thread does
+    // it, and a client that asked too early is told to come back.
+    auto loaded = jobs_.tableFor(*run, kTableWait);
+    if (!loaded) {
+      res.set_header("Retry-After", std::to_string(kRetryAfterS));
+      json body = {{"error", "the run's table is being loaded; retry in a moment"},
+                   {"status", 503},
+                   {"retry_after_s", kRetryAfterS}};
+      return sendJson(res, 503, body);
+    }
+    auto& table = *loaded;
     if (!table) return sendError(res, 500, "cannot load the run's table: " + table.error());
     auto program = lgp::memberProgram(f->front, k);
     if (!program) return sendError(res, 500, "cannot decode member: " + program.error());
@@ -499,8 +651,7 @@ class Api {
   Store& store_;
   JobManager& jobs_;
   std::string token_;
-  std::mutex refs_mu_;
-  std::map<std::string, json> refs_cache_;  // run id -> its scored references
+  size_t max_body_ = 0;
 };
 
 }  // namespace

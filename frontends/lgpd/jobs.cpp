@@ -18,6 +18,7 @@
 
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
+#include "submit_checks.hpp"
 #include "table_source.hpp"
 
 namespace lgpd {
@@ -31,6 +32,7 @@ namespace {
 
 constexpr size_t kMaxNameLength = 120;
 constexpr size_t kTableCacheSize = 4;
+constexpr size_t kMaxScoredReferenceRuns = 256;  // runs whose scored references are kept
 
 double seconds(std::chrono::steady_clock::duration d) {
   return std::chrono::duration<double>(d).count();
@@ -190,21 +192,23 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
     return Status::error(
         "/search/multi_output/mode: two_step runs are not served by lgpd yet "
         "(no checkpointing across steps); run them with `lgp run`");
-#ifndef LGP_HAVE_EMIT
-  if (cfg->search.seed_references)
-    return Status::error("/search/seed_references: this lgpd was built without the parser");
-#endif
-  // Load the table now so that a missing file or column is a 400, not a failed run.
+  // Check the table now so that a missing, unreadable or blocking file or an unknown column
+  // is a 400, not a failed run; but do not generate a scene or read a large file in the
+  // HTTP handler (submit_checks.hpp).
+  TableColumns columns;
   if (out.record.inline_table) {
     auto raw = lgp::parseJsonTable(*out.record.inline_table, "/data/table");
     if (!raw) return raw.status();
     auto table = lgp::selectColumns(*raw, cfg->data.inputs, cfg->data.outputs, cfg->data.weights,
                                     "/data/table");
     if (!table) return table.status();
+    columns = {table->input_names, table->output_names, true};
   } else {
-    auto table = lgp::cli::loadRunTable(*cfg);
-    if (!table) return table.status();
+    auto c = checkTableAtSubmit(*cfg);
+    if (!c) return c.status();
+    columns = std::move(*c);
   }
+  if (auto s = checkReferencesAtSubmit(*cfg, columns); !s) return s;
   out.record.config = j;
   out.record.status = RunStatus::Queued;
   out.config = std::move(*cfg);
@@ -247,25 +251,143 @@ Expected<std::string> JobManager::submit(PreparedRun run) {
   return run.record.id;
 }
 
-Expected<std::shared_ptr<const lgp::Table>> JobManager::table(const RunRecord& run) {
-  {
-    std::lock_guard lock(table_mutex_);
-    if (auto it = tables_.find(run.id); it != tables_.end()) return it->second;
-  }
+Expected<JobManager::TablePtr> JobManager::loadTable(const RunRecord& run) const {
   auto cfg = config(run);
   if (!cfg) return cfg.status();
   if (auto s = resolveInlineTable(run); !s) return s;
+  if (!run.inline_table)
+    if (auto s = checkDataFiles(*cfg); !s) return s;
   auto t = lgp::cli::loadRunTable(*cfg);
   if (!t) return t.status();
-  auto ptr = std::make_shared<const lgp::Table>(std::move(*t));
+  return TablePtr(std::make_shared<const lgp::Table>(std::move(*t)));
+}
+
+void JobManager::publishTable(const std::string& id, TablePtr table) {
   std::lock_guard lock(table_mutex_);
-  tables_[run.id] = ptr;
-  table_order_.push_back(run.id);
+  tables_[id] = std::move(table);
+  std::erase(table_order_, id);
+  table_order_.push_back(id);
   while (table_order_.size() > kTableCacheSize) {
     tables_.erase(table_order_.front());
     table_order_.erase(table_order_.begin());
   }
-  return ptr;
+}
+
+std::optional<Expected<JobManager::TablePtr>> JobManager::tableFor(const RunRecord& run,
+                                                                   std::chrono::milliseconds wait) {
+  std::shared_future<Expected<TablePtr>> pending;
+  {
+    std::lock_guard lock(table_mutex_);
+    if (auto it = tables_.find(run.id); it != tables_.end()) return Expected<TablePtr>(it->second);
+    if (auto it = table_loads_.find(run.id); it != table_loads_.end()) {
+      pending = it->second;
+    } else {
+      auto promise = std::make_shared<std::promise<Expected<TablePtr>>>();
+      pending = promise->get_future().share();
+      table_loads_[run.id] = pending;
+      background([this, run, promise] {
+        Expected<TablePtr> t = Status::error("lgpd is stopping");
+        try {
+          t = loadTable(run);
+        } catch (const std::exception& e) {
+          t = Status::error(std::string("cannot load the table: ") + e.what());
+        } catch (...) {
+          t = Status::error("cannot load the table: an unknown exception");
+        }
+        {
+          std::lock_guard done_lock(table_mutex_);
+          table_loads_.erase(run.id);  // an error is not kept: the file may come back
+        }
+        if (t) publishTable(run.id, *t);
+        promise->set_value(std::move(t));
+      });
+    }
+  }
+  if (pending.wait_for(wait) != std::future_status::ready) return std::nullopt;
+  return pending.get();
+}
+
+std::optional<json> JobManager::scoredReferences(const RunRecord& run,
+                                                 std::chrono::milliseconds wait) {
+  std::shared_future<json> pending;
+  {
+    std::lock_guard lock(table_mutex_);
+    if (auto it = ref_scores_.find(run.id); it != ref_scores_.end()) {
+      pending = it->second;
+    } else {
+      if (ref_scores_.size() >= kMaxScoredReferenceRuns) ref_scores_.clear();
+      auto promise = std::make_shared<std::promise<json>>();
+      pending = promise->get_future().share();
+      ref_scores_[run.id] = pending;
+      background([this, run, promise] {
+        json out = json::array();
+        std::string why;
+        try {
+          auto cfg = config(run);
+          if (!cfg) {
+            why = "the stored config no longer parses: " + cfg.error();
+          } else {
+            // On the background thread already: take the cached table or load it here.
+            Expected<TablePtr> table = Status::error("not loaded");
+            {
+              std::lock_guard cache_lock(table_mutex_);
+              if (auto c = tables_.find(run.id); c != tables_.end()) table = c->second;
+            }
+            if (!table) {
+              table = loadTable(run);
+              if (table) publishTable(run.id, *table);
+            }
+            if (!table) {
+              why = "cannot load the run's table: " + table.error();
+            } else {
+#ifdef LGP_HAVE_EMIT
+              out = lgp::emit::scoreReferences(*cfg, **table);
+#else
+              why = "references are not scored: this lgpd was built without lgp::emit";
+#endif
+            }
+          }
+        } catch (const std::exception& e) {
+          why = std::string("scoring failed: ") + e.what();
+        } catch (...) {
+          why = "scoring failed: an unknown exception";
+        }
+        if (!why.empty()) {
+          for (const auto& r : run.config.value("references", json::array())) {
+            json e = r.is_object() ? r : json{{"name", "(reference)"}};
+            e["invalid"] = why;
+            out.push_back(std::move(e));
+          }
+          std::lock_guard done_lock(table_mutex_);
+          ref_scores_.erase(run.id);  // not kept: the table may come back
+        }
+        promise->set_value(std::move(out));
+      });
+    }
+  }
+  if (pending.wait_for(wait) != std::future_status::ready) return std::nullopt;
+  return pending.get();
+}
+
+void JobManager::background(std::function<void()> task) {
+  std::lock_guard lock(bg_mutex_);
+  if (bg_stopping_) return;  // the promise is dropped: its waiters see a broken promise
+  bg_tasks_.push_back(std::move(task));
+  if (!bg_thread_.joinable()) bg_thread_ = std::thread([this] { backgroundLoop(); });
+  bg_cv_.notify_one();
+}
+
+void JobManager::backgroundLoop() {
+  std::unique_lock lock(bg_mutex_);
+  for (;;) {
+    bg_cv_.wait(lock, [&] { return bg_stopping_ || !bg_tasks_.empty(); });
+    if (bg_stopping_) break;
+    auto task = std::move(bg_tasks_.front());
+    bg_tasks_.pop_front();
+    lock.unlock();
+    task();
+    lock.lock();
+  }
 }
 
 Status JobManager::start() {
@@ -382,35 +504,82 @@ RunCounters countersOf(const lgp::SearchProgress& p, const json& best) {
 
 void JobManager::runJob(Job& job) {
   const std::string id = job.id;
-  auto finish = [&] { job.finished.store(true), cv_.notify_all(); };
+  // The run's start (loading, references, seeds, the first generation) is counted in the
+  // store before it begins and cleared once it is through or the job ends in an orderly way,
+  // so that a run whose start takes the daemon down is failed instead of being retried at
+  // every restart (see kMaxStartAttempts).
+  bool counting_start = false;
+  auto endStart = [&] {
+    if (!counting_start) return;
+    counting_start = false;
+    if (job.deleted.load()) return;
+    if (auto s = store_.endStart(id); !s) spdlog::error("run {}: {}", id, s.message());
+  };
+  auto finish = [&] {
+    endStart();
+    job.finished.store(true), cv_.notify_all();
+  };
+  // The search outlives the try block, so that a cancel never reaches a destroyed search.
+  std::unique_ptr<lgp::Search> search;
+  auto detach = [&] {
+    std::lock_guard lock(job.search_mutex);
+    job.search = nullptr;
+  };
   auto fail = [&](const std::string& msg) {
+    detach();
     spdlog::error("run {} failed: {}", id, msg);
     if (!job.deleted.load()) {
       auto s = store_.failRun(id, msg);
       if (!s) spdlog::error("run {}: {}", id, s.message());
     }
+    counting_start = false;
     finish();
   };
+  // Everything a job does is inside: no error of a run, thrown or returned, reaches the
+  // daemon. (A crash that no handler can catch is what the start count is for.)
   try {
     auto rec = store_.getRun(id);
     if (!rec) return fail(rec.error());
     if (!*rec) return finish();  // deleted meanwhile
     const RunRecord run = **rec;
     if (run.status != RunStatus::Queued && run.status != RunStatus::Running) return finish();
+    if (run.start_attempts >= kMaxStartAttempts)
+      return fail("lgpd stopped " + std::to_string(run.start_attempts) +
+                  " times in a row while this run was starting (a crash, or a kill), so it is "
+                  "not started again; lgpd's log of those starts says how far each got");
+    if (auto n = store_.beginStart(id); !n)
+      return fail(n.error());
+    else
+      counting_start = true;
     if (run.cancel_requested) job.cancel.store(true);
 
     auto cfg = config(run);
     if (!cfg) return fail(cfg.error());
     if (auto s = resolveInlineTable(run); !s) return fail(s.message());
+    // Submit checked the files; they may have changed since (and a FIFO must never be opened
+    // in a way that blocks).
+    if (!run.inline_table)
+      if (auto s = checkDataFiles(*cfg); !s) return fail(s.message());
     if (cfg->mpi.np > 0) {
-      auto s = runMpiJob(job, run, *cfg);
+      auto s = runMpiJob(job, run, *cfg, [&] { endStart(); });
       if (!s) return fail(s.message());
       return finish();
     }
-    auto table = lgp::cli::loadRunTable(*cfg);
-    if (!table) return fail(table.error());
+    spdlog::info("run {}: loading its table", id);
+    auto loaded = lgp::cli::loadRunTable(*cfg);
+    if (!loaded) return fail(loaded.error());
+    auto table = std::make_shared<const lgp::Table>(std::move(*loaded));
+    publishTable(id, table);
 
-    auto search = std::make_unique<lgp::Search>(*cfg, *table);
+    // The references, scored once on the run's table and stored with every front.
+    json scored_refs;
+#ifdef LGP_HAVE_EMIT
+    if (cfg->references.is_array() && !cfg->references.empty()) {
+      spdlog::info("run {}: scoring {} reference(s)", id, cfg->references.size());
+      scored_refs = lgp::emit::scoreReferences(*cfg, *table);
+    }
+#endif
+    search = std::make_unique<lgp::Search>(*cfg, *table);
     bool resumed = false;
     auto ckpt = store_.loadCheckpoint(id);
     if (!ckpt) {
@@ -427,6 +596,7 @@ void JobManager::runJob(Job& job) {
     if (!resumed) {
 #ifdef LGP_HAVE_EMIT
       if (cfg->search.seed_references) {
+        spdlog::info("run {}: seeding from its references", id);
         auto progs = lgp::emit::referencePrograms(*cfg, *table);
         if (!progs) return fail(progs.error());
         for (const auto& why : search->addSeeds(*progs))
@@ -450,11 +620,13 @@ void JobManager::runJob(Job& job) {
     json best = json::object();
     auto snapshot = [&]() {
       json front = lgp::frontToJson(*search, search->front());
+      if (!scored_refs.is_null()) front["references"] = scored_refs;
       best = bestPerObjective(front);
       return front;
     };
     while (!search->done() && !job.shutdown.load()) {
       search->step();
+      endStart();  // the start is through: table, references, seeds and a first generation
       if (job.deleted.load()) break;
       auto now = clock::now();
       if (seconds(now - last_ckpt) >= cfg_.checkpoint_interval_s) {
@@ -505,12 +677,15 @@ void JobManager::runJob(Job& job) {
     spdlog::info("run {} {}: generation {}, {} evaluations, front of {}", id, toString(status),
                  p.generation, p.evaluations, p.front_size);
     return finish();
+  } catch (const std::bad_alloc&) {
+    detach();
+    return fail("out of memory (the table or the search is too large for this machine)");
   } catch (const std::exception& e) {
-    {
-      std::lock_guard lock(job.search_mutex);
-      job.search = nullptr;
-    }
+    detach();
     return fail(std::string("internal error: ") + e.what());
+  } catch (...) {
+    detach();
+    return fail("internal error: an unknown exception");
   }
 }
 
@@ -567,7 +742,8 @@ std::string hintFor(int wait_status) {
 
 }  // namespace
 
-Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg) {
+Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg,
+                             const std::function<void()>& launched) {
   using clock = std::chrono::steady_clock;
   const std::string& id = run.id;
   if (!mpi_.usable())
@@ -638,6 +814,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
   auto child = ChildProcess::spawn(argv, env, work.log());
   if (!child) return Status::error("cannot start " + argv[0] + ": " + child.error());
   lgp::writeTextAtomic(std::to_string(child->pid()) + "\n", work.pidFile());
+  launched();
   spdlog::info("run {} {} over MPI: {} -np {} (pid {}){}", id, resume ? "resumed" : "started",
                argv[0], cfg.mpi.np, child->pid(),
                resume ? " from generation " + std::to_string(resume_generation) : "");
@@ -649,6 +826,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
   // (built on first use: the daemon then holds the table too).
   std::unique_ptr<lgp::Search> viewer;
   bool viewer_failed = false;
+  json viewer_refs;  // the references scored on the viewer's table, once
   auto frontOf = [&](const json& state) -> std::optional<json> {
     if (viewer_failed) return std::nullopt;
     if (!viewer) {
@@ -662,13 +840,19 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
       lgp::RunConfig view_cfg = cfg;
       lgp::Search::adoptCheckpointIslands(view_cfg, state);
       viewer = std::make_unique<lgp::Search>(view_cfg, std::move(*table));
+#ifdef LGP_HAVE_EMIT
+      if (cfg.references.is_array() && !cfg.references.empty())
+        viewer_refs = lgp::emit::scoreReferences(viewer->config(), viewer->table());
+#endif
     }
     if (auto s = viewer->restore(state); !s) {
       spdlog::warn("run {}: checkpoint kept without a front ({})", id, s.message());
       viewer_failed = true;  // the same would happen with every later checkpoint
       return std::nullopt;
     }
-    return lgp::frontToJson(*viewer, viewer->front());
+    json front = lgp::frontToJson(*viewer, viewer->front());
+    if (!viewer_refs.is_null()) front["references"] = viewer_refs;
+    return front;
   };
   auto pollStatus = [&] {
     auto v = FileVersion::of(work.status());
@@ -834,6 +1018,7 @@ Expected<bool> JobManager::remove(const std::string& id) {
     std::lock_guard lock(table_mutex_);
     tables_.erase(id);
     std::erase(table_order_, id);
+    ref_scores_.erase(id);
   }
   // Rows go now; a job still finishing its generation skips every write once it sees the
   // flag, and foreign keys reject any write that races with this.
@@ -864,6 +1049,13 @@ void JobManager::shutdown() {
   }
   for (auto& job : jobs)
     if (job->thread.joinable()) job->thread.join();
+  {
+    std::lock_guard lock(bg_mutex_);
+    bg_stopping_ = true;
+    bg_tasks_.clear();
+  }
+  bg_cv_.notify_all();
+  if (bg_thread_.joinable()) bg_thread_.join();
 }
 
 }  // namespace lgpd

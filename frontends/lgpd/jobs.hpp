@@ -20,9 +20,18 @@
 // then SIGTERM after mpi.stop_grace_s, then SIGKILL to its process group. A relaunch resumes
 // with --resume from the newest checkpoint (the work dir's file or the store's); any launch
 // that fails marks the run failed, so a broken run is never relaunched in a loop.
+//
+// A job never takes the daemon down: every error and exception of a run fails that run.
+// What no handler can catch (a crash in the engine) is bounded by the start count: the store
+// counts each start before the job loads anything and clears it after the first generation,
+// and a run whose count reaches kMaxStartAttempts is failed instead of started again.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -60,8 +69,11 @@ class JobManager {
   // Checkpoints and stops every job; they stay "running" in the store. Idempotent.
   void shutdown();
 
-  // Validates a submission (the body of POST /api/v1/runs) and turns it into a run record.
-  // The error names the JSON path.
+  // Validates a submission (the body of POST /api/v1/runs) and turns it into a run record:
+  // the config, the data files (regular, readable, never opened so that it could block), the
+  // table's columns, the references and, with seed_references, their fit to the program
+  // shape (submit_checks.hpp). Generates no scene and reads no large table. The error names
+  // the JSON path.
   lgp::Expected<PreparedRun> prepare(const nlohmann::json& submission) const;
   // Stores a prepared run as queued and wakes the scheduler. Returns the id.
   lgp::Expected<std::string> submit(PreparedRun run);
@@ -72,8 +84,17 @@ class JobManager {
   lgp::Expected<bool> remove(const std::string& id);
   bool isActive(const std::string& id) const;
 
-  // The table of a run (cached; for residuals). Thread-safe.
-  lgp::Expected<std::shared_ptr<const lgp::Table>> table(const RunRecord& run);
+  using TablePtr = std::shared_ptr<const lgp::Table>;
+  // The table of a run, for the API (residuals): from the cache (a job puts the table it
+  // loaded there), else loaded on the background thread. Waits at most `wait`; nullopt means
+  // it is still loading (ask again). Thread-safe.
+  std::optional<lgp::Expected<TablePtr>> tableFor(const RunRecord& run,
+                                                  std::chrono::milliseconds wait);
+  // The config's references scored on the run's table (emit::scoreReferences), for a front
+  // stored without scores: computed once on the background thread and kept. Waits at most
+  // `wait`; nullopt means not ready yet. Thread-safe.
+  std::optional<nlohmann::json> scoredReferences(const RunRecord& run,
+                                                 std::chrono::milliseconds wait);
   // The parsed config of a stored run.
   lgp::Expected<lgp::RunConfig> config(const RunRecord& run) const;
 
@@ -87,7 +108,14 @@ class JobManager {
   void launch(const std::string& id, bool resume);
   void runJob(Job& job);
   // The out-of-process job of an MPI run. An error fails the run (unless it was deleted).
-  lgp::Status runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg);
+  // launched() is called once the launcher runs.
+  lgp::Status runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg,
+                        const std::function<void()>& launched);
+  void publishTable(const std::string& id, TablePtr table);
+  lgp::Expected<TablePtr> loadTable(const RunRecord& run) const;
+  // Runs `task` on the background thread (started on first use, joined by shutdown()).
+  void background(std::function<void()> task);
+  void backgroundLoop();
   std::filesystem::path mpiWorkDir(const std::string& id) const;
   lgp::Status resolveInlineTable(const RunRecord& run) const;
   std::filesystem::path inlineTablePath(const std::string& id) const;
@@ -104,9 +132,22 @@ class JobManager {
   std::thread scheduler_;
 
   std::mutex table_mutex_;
-  std::map<std::string, std::shared_ptr<const lgp::Table>> tables_;  // small cache
+  std::map<std::string, TablePtr> tables_;  // small cache
   std::vector<std::string> table_order_;
+  std::map<std::string, std::shared_future<lgp::Expected<TablePtr>>> table_loads_;
+  std::map<std::string, std::shared_future<nlohmann::json>> ref_scores_;
+
+  // Work the HTTP handlers must not do themselves: one thread, first come first served.
+  std::mutex bg_mutex_;
+  std::condition_variable bg_cv_;
+  std::deque<std::function<void()>> bg_tasks_;
+  std::thread bg_thread_;
+  bool bg_stopping_ = false;
 };
+
+// A run whose start was interrupted by the daemon's death this many times in a row (its
+// start count, Store::beginStart) is failed instead of being started again.
+inline constexpr int kMaxStartAttempts = 2;
 
 // Run ids: 16 lowercase hex digits from a random source. isValidRunId accepts exactly that
 // shape, so ids never carry path or SQL syntax.

@@ -1,9 +1,9 @@
 // The inspection page in headless Chromium against a live lgpd: the run list and the Pareto
 // plot render with the expected number of points; the config's references are scored and
 // drawn inside the plot area even when they lie outside the members' cost range, and one
-// that does not parse leaves the plot intact; the member list shows each member's formula
-// with a copy button and its cancellation flag; the selected member's panel and the
-// residual heatmap fill in; and a screenshot is saved under the build directory
+// without a finite error (it overflows float32) leaves the plot intact; the member list shows each
+// member's formula with a copy button and its cancellation flag; the selected member's panel and
+// the residual heatmap fill in; and a screenshot is saved under the build directory
 // (tests/daemon/lgpd-page.png). Skipped with a message when chromium is not installed.
 #include <algorithm>
 #include <regex>
@@ -50,7 +50,8 @@ std::string attrOf(const std::string& html, const std::string& id, const std::st
 // Text as Chromium's --dump-dom serialises it: in text (&, <, >) and in attribute values (&, ").
 std::string escapeText(const std::string& s) {
   std::string o;
-  for (char c : s) o += c == '&' ? "&amp;" : c == '<' ? "&lt;" : c == '>' ? "&gt;" : std::string(1, c);
+  for (char c : s)
+    o += c == '&' ? "&amp;" : c == '<' ? "&lt;" : c == '>' ? "&gt;" : std::string(1, c);
   return o;
 }
 std::string escapeAttr(const std::string& s) {
@@ -77,7 +78,7 @@ std::string formulaOf(const json& m) {
 
 struct RefMark {
   std::string name;
-  double x = 0, y = 0;        // data-x, data-y
+  double x = 0, y = 0;            // data-x, data-y
   double path_x = 0, path_y = 0;  // the diamond's top vertex, from its path
 };
 
@@ -113,7 +114,8 @@ TEST(Browser, PageRendersRunsParetoMemberAndHeatmap) {
   json cfg = runConfig(table, 40, 64, 3);
   cfg["name"] = "browser demo";
   // References, scored by lgpd beside the front: the target itself (error near 0, below the
-  // members), one far costlier than any member, and one that does not parse.
+  // members), one far costlier than any member, and one whose value overflows float32 (no
+  // finite error). One that does not parse is refused at submit.
   cfg["references"] = {
       {{"name", "exact"}, {"expr", "x*y + 0.5*x - y/(1 + x)"}},
       {{"name", "costly"},
@@ -121,7 +123,17 @@ TEST(Browser, PageRendersRunsParetoMemberAndHeatmap) {
         "x*y + 0.5*x - y/(1 + x) + 0.001*(sin(exp(x)*cos(y)) + sin(exp(y)*cos(x)) + "
         "sqrt(x + y)*log(1 + x*y) + pow(x, y)*exp(-x*y) + sin(x*y)/(1 + y) + cos(x + y)*exp(y) "
         "+ sin(exp(x + y)) + cos(exp(x*y)) + sqrt(exp(x))*sin(y) + log(2 + sin(x))*cos(y))"}},
-      {{"name", "broken"}, {"expr", "nosuchcolumn*2"}}};
+      {{"name", "overflow"}, {"expr", "(1e38*x)*(1e38*y)"}}};
+#ifdef LGPD_TEST_HAVE_EMIT
+  {
+    json bad = cfg;
+    bad["references"][2]["expr"] = "nosuchcolumn*2";
+    Reply r;
+    EXPECT_TRUE(d.submit(bad, &r).empty());
+    EXPECT_EQ(r.status, 400) << r.body;
+    EXPECT_EQ(r.j().value("field", ""), "/references/2/expr") << r.body;
+  }
+#endif
   std::string id = d.submit(cfg);
   ASSERT_FALSE(id.empty());
   json run = d.waitDone(id);
@@ -131,13 +143,16 @@ TEST(Browser, PageRendersRunsParetoMemberAndHeatmap) {
   ASSERT_GT(points, 0u);
   const size_t member = points - 1;
 #ifdef LGPD_TEST_HAVE_EMIT
-  // The references come back scored; the broken one is kept with its reason.
+  // The references come back scored (by the job, stored with the front); the overflowing
+  // one has no finite error.
   ASSERT_TRUE(front["references"].is_array()) << front.dump().substr(0, 2000);
   ASSERT_EQ(front["references"].size(), 3u) << front["references"].dump();
   const json& costly = front["references"][1];
   ASSERT_TRUE(costly["cost"].is_number()) << costly.dump();
   ASSERT_TRUE(front["references"][0]["error"].is_number()) << front["references"][0].dump();
-  EXPECT_TRUE(front["references"][2].contains("invalid")) << front["references"][2].dump();
+  EXPECT_TRUE(front["references"][2].contains("error") && front["references"][2]["error"].is_null())
+      << front["references"][2].dump();
+  for (const auto& r : front["references"]) EXPECT_FALSE(r.contains("pending")) << r.dump();
   double max_cost = 0;
   for (const auto& m : front["members"]) max_cost = std::max(max_cost, m["cost"].get<double>());
   ASSERT_GT(costly["cost"].get<double>(), max_cost)
@@ -187,7 +202,7 @@ TEST(Browser, PageRendersRunsParetoMemberAndHeatmap) {
     EXPECT_EQ(refs[0].name, "exact");
     EXPECT_EQ(refs[1].name, "costly");
     EXPECT_GT(refs[1].x, refs[0].x) << "the costly reference lies right of the exact one";
-    EXPECT_NE(dom.find("1 reference not drawn"), std::string::npos) << "the broken one";
+    EXPECT_NE(dom.find("1 reference not drawn"), std::string::npos) << "the overflowing one";
   }
 
   // The member list: one row per member with its formula, a copy button and its flag.

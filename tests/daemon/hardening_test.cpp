@@ -1,9 +1,17 @@
-// lgpd against hostile and careless input (issue 10): slow (slowloris) clients, weak tokens,
-// a deep or duplicate-keyed daemon config, and empty, corrupt or missing databases.
+// lgpd against hostile and careless input (issue 10): JSON nested 100k deep, numbers that
+// overflow, duplicate keys, bad framing (Content-Length: -5, chunked bodies over the limit,
+// no length), non-JSON content types, references that do not parse or cannot seed, a FIFO
+// or a directory as the data file, a scene that takes long to generate, slow (slowloris)
+// clients, weak tokens and empty or corrupt databases. Every case gets its documented status
+// code (frontends/lgpd/README.md) and the daemon stays up; a run that still fails when its
+// job starts is marked failed, and a run whose start keeps taking the daemon down is failed
+// instead of being started at every restart.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sqlite3.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 
 #include <regex>
 
@@ -71,6 +79,16 @@ int statusOf(const std::string& response) {
   return 0;
 }
 
+// One request on a fresh connection, written as given; the raw response.
+std::string rawRequest(int port, const std::string& request, double timeout_s = 10) {
+  int fd = connectFrom("127.0.0.1", port);
+  if (fd < 0) return "";
+  sendAll(fd, request);
+  std::string r = readAll(fd, timeout_s);
+  ::close(fd);
+  return r;
+}
+
 std::string nested(const std::string& open, const std::string& inner, const std::string& close,
                    int depth) {
   std::string s;
@@ -112,6 +130,230 @@ class Hardening : public ::testing::Test {
   std::optional<Daemon> daemon_;
   fs::path table_;
 };
+
+TEST_F(Hardening, DeepJsonOverflowingNumbersAndDuplicateKeysGet400) {
+  // 100k deep (the audit's crash): as the whole body, and in a field.
+  json j = refused(nested("{\"a\":", "1", "}", 100000), 400, "object nested 100k deep");
+  EXPECT_NE(j.value("error", "").find("nested deeper than 64"), std::string::npos) << j.dump();
+  std::string cfg = runConfig(table_, 5).dump();
+  std::string in_field = cfg;
+  in_field.replace(in_field.find("\"threads\":1"), 11,
+                   "\"threads\":" + nested("[", "1", "]", 100000));
+  refused(in_field, 400, "array nested 100k deep in a field");
+  refused(nested("[", "", "]", 65), 400, "65 levels");
+  // Numbers outside double, in a field that takes a number.
+  std::string big = cfg;
+  big.replace(big.find("\"population\":32"), 15, "\"population\":1e999");
+  refused(big, 400, "1e999");
+  big = cfg;
+  big.replace(big.find("\"population\":32"), 15, "\"population\":" + std::string(400, '9'));
+  refused(big, 400, "a 400-digit integer");
+  // A key given twice is an error that names it, not "last one wins".
+  std::string dup = cfg;
+  dup.replace(dup.find("\"threads\":1"), 11, "\"threads\":1,\"threads\":2");
+  j = refused(dup, 400, "duplicate key");
+  EXPECT_EQ(j.value("field", ""), "/search/threads") << j.dump();
+  EXPECT_EQ(runCount(), 0u);
+  EXPECT_EQ(daemon_->get("/api/v1/health").status, 200);
+}
+
+TEST_F(Hardening, FramingAndContentTypeGetTheirCodes) {
+  Daemon& d = *daemon_;
+  const std::string cfg = runConfig(table_, 5).dump();
+  // Content-Length: -5 and other lengths that are not a number of bytes.
+  for (const char* len : {"-5", "abc", "1e3", "99999999999999999999999"}) {
+    std::string r = rawRequest(
+        d.port(), std::string("POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n") +
+                      "Content-Type: application/json\r\nContent-Length: " + len + "\r\n\r\n{}");
+    EXPECT_EQ(statusOf(r), 400) << len << ": " << r;
+  }
+  // Over the limit by its Content-Length: 413 before the body is read.
+  std::string r = rawRequest(d.port(),
+                             "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: "
+                             "application/json\r\nContent-Length: 300000000\r\n\r\n{");
+  EXPECT_EQ(statusOf(r), 413) << r;
+  // No length at all.
+  r = rawRequest(d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(statusOf(r), 411) << r;
+  // Both framings, an unknown transfer coding, a body on a GET, an unsupported method.
+  r = rawRequest(d.port(),
+                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n"
+                 "Transfer-Encoding: chunked\r\n\r\n{}");
+  EXPECT_EQ(statusOf(r), 400) << r;
+  r = rawRequest(d.port(),
+                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip\r\n\r\n");
+  EXPECT_EQ(statusOf(r), 501) << r;
+  r = rawRequest(d.port(), "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n\r\nabc");
+  EXPECT_EQ(statusOf(r), 400) << r;
+  r = rawRequest(d.port(), "PUT /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+  EXPECT_EQ(statusOf(r), 405) << r;
+  // A body over 8 KB without a JSON content type (what `curl -d` sends): 415, not 413.
+  std::string padded = cfg;
+  padded.insert(1, "\"name\":\"" + std::string(100, 'n') + "\",");
+  padded.append(std::string(9000, ' '));
+  {
+    httplib::Client c("127.0.0.1", d.port());
+    auto res = c.Post("/api/v1/runs", padded, "application/x-www-form-urlencoded");
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 415) << res->body;
+    res = c.Post("/api/v1/runs", padded, "text/plain");
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 415) << res->body;
+    // The same body as JSON is accepted (the limit is max_body_bytes, 1 MiB here).
+    res = c.Post("/api/v1/runs", padded, "application/json; charset=utf-8");
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 201) << res->body;
+  }
+  EXPECT_TRUE(d.alive());
+  EXPECT_EQ(runCount(), 1u);
+}
+
+TEST_F(Hardening, ChunkedBodyOverTheLimitIsCutOff) {
+  // A chunked upload far over max_body_bytes (1 MiB): lgpd answers 413 once the limit is
+  // passed and stops reading; the client could send only a bounded amount.
+  int fd = connectFrom("127.0.0.1", daemon_->port());
+  ASSERT_GE(fd, 0);
+  ASSERT_TRUE(sendAll(fd,
+                      "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                      "Transfer-Encoding: chunked\r\n\r\n"));
+  const std::string chunk = "10000\r\n" + std::string(0x10000, ' ') + "\r\n";
+  size_t sent = 0;
+  std::string response;
+  while (sent < (size_t{300} << 20)) {
+    pollfd p{fd, POLLIN | POLLOUT, 0};
+    if (::poll(&p, 1, 5000) <= 0) break;
+    if (p.revents & (POLLIN | POLLHUP | POLLERR)) {
+      response = readAll(fd, 5);
+      break;
+    }
+    ssize_t n = ::send(fd, chunk.data(), chunk.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n <= 0 && errno != EAGAIN) {
+      response = readAll(fd, 5);
+      break;
+    }
+    if (n > 0) sent += static_cast<size_t>(n);
+  }
+  ::close(fd);
+  EXPECT_EQ(statusOf(response), 413) << response.substr(0, 300);
+  EXPECT_LT(sent, size_t{64} << 20) << "lgpd kept reading a body over its limit";
+  EXPECT_TRUE(daemon_->alive());
+  EXPECT_EQ(runCount(), 0u);
+}
+
+TEST_F(Hardening, ReferencesAreCheckedAtSubmit) {
+#ifndef LGPD_TEST_HAVE_EMIT
+  GTEST_SKIP() << "lgpd without lgp::emit does not parse references";
+#endif
+  json cfg = runConfig(table_, 5);
+  cfg["references"] = {{{"name", "good"}, {"expr", "x*y"}}, {{"name", "bad"}, {"expr", "nope*2"}}};
+  json j = refused(cfg.dump(), 400, "a reference that does not parse");
+  EXPECT_EQ(j.value("field", ""), "/references/1/expr") << j.dump();
+  // The audit's crash: a bad reference with seed_references was accepted, then took the
+  // daemon down when its job started, at every restart.
+  cfg["search"]["seed_references"] = true;
+  for (const char* expr : {"nope*2", "x2147483648", "x4294967298 + y", "((x)"}) {
+    cfg["references"][1]["expr"] = expr;
+    j = refused(cfg.dump(), 400, std::string("seed_references with ") + expr);
+    EXPECT_EQ(j.value("field", ""), "/references/1/expr") << j.dump();
+  }
+  // A reference that parses but cannot seed this program shape.
+  cfg["references"] = {{{"name", "long"}, {"expr", "x*y + x/(1 + y) + y*y*x - x*x + y/(2 + x)"}}};
+  cfg["program"] = {{"max_length", 3}, {"init_max_length", 3}};
+  j = refused(cfg.dump(), 400, "a seed longer than max_length");
+  EXPECT_EQ(j.value("field", ""), "/references/0") << j.dump();
+  // Too long a formula text.
+  cfg.erase("program");
+  cfg["references"][0]["expr"] = "x" + std::string(70000, ' ');
+  j = refused(cfg.dump(), 400, "a 70 kB formula");
+  EXPECT_EQ(j.value("field", ""), "/references/0/expr") << j.dump();
+  EXPECT_EQ(runCount(), 0u);
+  // A good seeded run still runs.
+  cfg["references"] = {{{"name", "exact"}, {"expr", "x*y + 0.5*x - y/(1 + x)"}}};
+  std::string id = daemon_->submit(cfg);
+  ASSERT_FALSE(id.empty());
+  EXPECT_EQ(daemon_->waitDone(id).value("status", ""), "finished") << daemon_->log();
+}
+
+TEST_F(Hardening, DataFileMustBeARegularReadableFile) {
+  Daemon& d = *daemon_;
+  const fs::path fifo = tmp_->path() / "fifo.csv";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  json j = refused(runConfig(fifo, 5).dump(), 400, "a FIFO");
+  EXPECT_EQ(j.value("field", ""), "/data/path") << j.dump();
+  EXPECT_NE(j.value("error", "").find("FIFO"), std::string::npos) << j.dump();
+  j = refused(runConfig(tmp_->path(), 5).dump(), 400, "a directory");
+  EXPECT_EQ(j.value("field", ""), "/data/path") << j.dump();
+  EXPECT_NE(j.value("error", "").find(tmp_->path().string()), std::string::npos) << j.dump();
+  const fs::path empty = tmp_->path() / "empty.csv";
+  std::ofstream(empty).close();
+  refused(runConfig(empty, 5).dump(), 400, "an empty file");
+  json scene = runConfig(table_, 5);
+  scene["data"].erase("path");
+  scene["data"]["scene"] = fifo.string();
+  j = refused(scene.dump(), 400, "a FIFO as the scene");
+  EXPECT_EQ(j.value("field", ""), "/data/scene") << j.dump();
+  EXPECT_EQ(runCount(), 0u);
+
+  // A file that becomes a FIFO between submit and the job's start: the run fails with the
+  // reason, and nothing blocks (the daemon still stops on SIGTERM).
+  std::string a = d.submit(runConfig(table_, 1000000, 32, 1));  // holds the one job slot
+  ASSERT_FALSE(a.empty());
+  ASSERT_EQ(d.waitFor(a, [](const json& r) { return r.value("status", "") == "running"; })
+                .value("status", ""),
+            "running");
+  const fs::path later = tmp_->path() / "later.csv";
+  fs::copy_file(table_, later);
+  std::string b = d.submit(runConfig(later, 5));
+  ASSERT_FALSE(b.empty());
+  fs::remove(later);
+  ASSERT_EQ(::mkfifo(later.c_str(), 0600), 0);
+  ASSERT_EQ(d.post("/api/v1/runs/" + a + "/cancel", "").status, 200);
+  json rb = d.waitDone(b, 60);
+  EXPECT_EQ(rb.value("status", ""), "failed") << rb.dump();
+  EXPECT_NE(rb.value("error", "").find("FIFO"), std::string::npos) << rb.dump();
+}
+
+TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
+#ifndef LGPD_TEST_HAVE_DATASETS
+  GTEST_SKIP() << "lgpd without the datasets library";
+#endif
+  // A scene that takes long to generate: the POST answers at once (the scene is parsed,
+  // not generated), the API keeps answering, and the job does the generation.
+  const fs::path scene = tmp_->path() / "big.json";
+  std::ofstream(scene) << R"({"format": "lgp-scene/1", "light": {"type": "environment"},
+    "material": {"ndf": "ggx", "visibility": "smith-correlated", "fresnel": "schlick",
+                 "roughness": "perceptual"},
+    "outputs": ["A", "B"],
+    "grid": {"mu": {"count": 256, "range": [0.015625, 1]}, "r": {"count": 256, "range": [0, 1]}},
+    "accuracy": {"abs_error": 1e-7}})";
+  json cfg = {
+      {"data", {{"scene", scene.string()}, {"cache_dir", (tmp_->path() / "cache").string()}}},
+      {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  // A bad scene is a 400 at submit, naming the field.
+  json bad = cfg;
+  std::ofstream(tmp_->path() / "bad.json") << R"({"outputs": ["A"], "grid": {"mu": {"count": 0}}})";
+  bad["data"]["scene"] = (tmp_->path() / "bad.json").string();
+  json j = refused(bad.dump(), 400, "a bad scene");
+  EXPECT_EQ(j.value("field", ""), "/data/scene") << j.dump();
+  bad["data"]["scene"] = scene.string();
+  bad["data"]["outputs"] = {"nope"};
+  j = refused(bad.dump(), 400, "an output the scene does not make");
+  EXPECT_EQ(j.value("field", ""), "/data/scene") << j.dump();
+
+  const auto t0 = std::chrono::steady_clock::now();
+  Reply r;
+  std::string id = daemon_->submit(cfg, &r);
+  ASSERT_EQ(r.status, 201) << r.body;
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10))
+      << "the POST waited for the scene";
+  EXPECT_EQ(daemon_->get("/api/v1/runs").status, 200);
+  EXPECT_EQ(daemon_->get("/api/v1/runs/" + id).status, 200);
+  ASSERT_TRUE(daemon_->del("/api/v1/runs/" + id).status == 200);
+  // (The job finishes generating in the background; the fixture's stop waits for it or
+  // kills it.)
+  daemon_->kill9();
+  daemon_.reset();
+}
 
 // Sockets that each send the start of a request, then one byte a second, from `src`.
 class SlowClients {
@@ -289,6 +531,75 @@ TEST(HardeningStore, EmptyOrCorruptDatabaseIsAnErrorUnlessInit) {
     ASSERT_TRUE(d.start()) << d.log();
     EXPECT_EQ(d.stop(), 0);
   }
+}
+
+// The start count in the store, as a job leaves it.
+int startAttempts(const fs::path& db_path, const std::string& id) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(db_path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) return -1;
+  sqlite3_stmt* st = nullptr;
+  int n = -1;
+  if (sqlite3_prepare_v2(db, "SELECT start_attempts FROM runs WHERE id = ?1", -1, &st, nullptr) ==
+      SQLITE_OK) {
+    sqlite3_bind_text(st, 1, id.c_str(), -1, SQLITE_TRANSIENT);
+    if (sqlite3_step(st) == SQLITE_ROW) n = sqlite3_column_int(st, 0);
+  }
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  return n;
+}
+
+TEST(HardeningJobs, RunWhoseStartKillsTheDaemonIsFailedNotRetriedForever) {
+#ifndef LGPD_TEST_HAVE_DATASETS
+  GTEST_SKIP() << "lgpd without the datasets library";
+#endif
+  // The daemon dies (kill -9, standing in for a crash no handler can catch) while a run is
+  // starting (generating its scene), twice. The third start does not start it again: the
+  // run is failed with the reason, and lgpd keeps serving.
+  TempDir tmp("startloop");
+  const fs::path scene = tmp.path() / "slow.json";
+  std::ofstream(scene) << R"({"light": {"type": "environment"}, "outputs": ["A", "B"],
+    "material": {"ndf": "ggx", "visibility": "smith-correlated", "fresnel": "schlick"},
+    "grid": {"mu": {"count": 512, "range": [0.015625, 1]}, "r": {"count": 512, "range": [0, 1]}},
+    "accuracy": {"abs_error": 1e-8}})";
+  json cfg = {{"data", {{"scene", scene.string()}, {"cache_dir", (tmp.path() / "cache").string()}}},
+              {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  const fs::path state = tmp.path() / "state";
+  std::string id;
+  for (int kill = 0; kill < 2; ++kill) {
+    Daemon d(state);
+    ASSERT_TRUE(d.start()) << d.log();
+    if (kill == 0) {
+      id = d.submit(cfg);
+      ASSERT_FALSE(id.empty());
+    }
+    // Wait until the job is generating the scene, then kill the daemon.
+    const std::string marker = "run " + id + ": loading its table";
+    size_t seen = 0;
+    for (int i = 0; i < 600; ++i) {
+      std::string log = d.log();
+      size_t count = 0;
+      for (size_t p = log.find(marker); p != std::string::npos; p = log.find(marker, p + 1))
+        ++count;
+      seen = count;
+      if (seen > 0) break;
+      sleepMs(50);
+    }
+    ASSERT_GT(seen, 0u) << d.log();
+    EXPECT_EQ(d.get("/api/v1/runs/" + id).j().value("status", ""), "queued");
+    d.kill9();
+    EXPECT_EQ(startAttempts(state / "lgpd.sqlite3", id), kill + 1);
+    // Separate logs per start.
+    fs::rename(state / "lgpd.log", state / ("lgpd-" + std::to_string(kill) + ".log"));
+  }
+  Daemon d(state);
+  ASSERT_TRUE(d.start()) << d.log();
+  json run = d.waitDone(id, 30);
+  EXPECT_EQ(run.value("status", ""), "failed") << run.dump();
+  EXPECT_NE(run.value("error", "").find("not started again"), std::string::npos) << run.dump();
+  EXPECT_EQ(d.log().find("loading its table"), std::string::npos) << d.log();
+  EXPECT_EQ(d.get("/api/v1/health").status, 200);
+  EXPECT_EQ(d.stop(), 0) << d.log();
 }
 
 }  // namespace

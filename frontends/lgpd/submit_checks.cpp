@@ -1,0 +1,198 @@
+#include "submit_checks.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <set>
+
+#include "files.hpp"
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
+#include "lgp/search/search.hpp"
+#include "table_source.hpp"
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/score.hpp"
+#endif
+#ifdef LGP_HAVE_DATASETS
+#include "lgp/datasets/scene.hpp"
+#endif
+
+namespace lgpd {
+
+using lgp::Expected;
+using lgp::Status;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path resolved(const lgp::RunConfig& cfg, const std::string& p) {
+  fs::path path(p);
+  return path.is_relative() ? cfg.base_dir / path : path;
+}
+
+// The names a table with these columns gives the run, by selectColumns itself (one row of
+// ones stands in for the data), so that every message is the one a full load would give.
+Expected<TableColumns> namesOf(lgp::RawTable raw, const lgp::RunConfig& cfg,
+                               const std::string& origin) {
+  raw.columns.assign(raw.names.size(), std::vector<double>(1, 1.0));
+  if (!raw.weights.empty()) raw.weights.assign(1, 1.0);
+  auto t = lgp::selectColumns(raw, cfg.data.inputs, cfg.data.outputs, cfg.data.weights, origin);
+  if (!t) return t.status();
+  return TableColumns{t->input_names, t->output_names, true};
+}
+
+std::string trimCell(std::string_view s) {
+  // As the CSV reader trims: spaces, tabs, CR and double quotes at both ends.
+  auto strip = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '"'; };
+  size_t b = 0, e = s.size();
+  while (b < e && strip(s[b])) ++b;
+  while (e > b && strip(s[e - 1])) --e;
+  return std::string(s.substr(b, e - b));
+}
+
+// The header row of a CSV (the first line that is neither blank nor a '#' comment).
+Expected<std::vector<std::string>> csvHeader(const std::string& text, const std::string& f) {
+  std::string_view rest(text);
+  if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);  // UTF-8 byte order mark
+  while (!rest.empty()) {
+    const size_t nl = rest.find('\n');
+    if (nl == std::string_view::npos && text.size() >= kCsvHeaderBytes)
+      return Status::error(f + ": no header row within the first " +
+                           std::to_string(kCsvHeaderBytes) + " bytes");
+    std::string_view line = rest.substr(0, nl);
+    rest.remove_prefix(nl == std::string_view::npos ? rest.size() : nl + 1);
+    const std::string t = trimCell(line);
+    if (t.empty() || t[0] == '#') continue;
+    std::vector<std::string> names;
+    std::set<std::string> seen;
+    size_t start = 0;
+    for (size_t i = 0; i <= line.size(); ++i) {
+      if (i < line.size() && line[i] != ',') continue;
+      names.push_back(trimCell(line.substr(start, i - start)));
+      start = i + 1;
+      const size_t c = names.size();
+      if (names.back().empty())
+        return Status::error(f + ": header, column " + std::to_string(c) + ": empty name");
+      if (!seen.insert(names.back()).second)
+        return Status::error(f + ": header, column " + std::to_string(c) + " ('" + names.back() +
+                             "'): duplicate name");
+    }
+    return names;
+  }
+  return Status::error(f + ": empty file, expected a header row");
+}
+
+}  // namespace
+
+Status checkDataFiles(const lgp::RunConfig& cfg) {
+  if (!cfg.data.scene.empty()) {
+    if (auto f = RegularFile::open(resolved(cfg, cfg.data.scene)); !f)
+      return Status::error("/data/scene: " + f.error());
+  } else if (!cfg.data.path.empty()) {
+    auto f = RegularFile::open(resolved(cfg, cfg.data.path));
+    if (!f) return Status::error("/data/path: " + f.error());
+    if (f->size() == 0)
+      return Status::error("/data/path: " + resolved(cfg, cfg.data.path).string() +
+                           " is empty (0 bytes)");
+  }
+  return Status::ok();
+}
+
+Expected<TableColumns> checkTableAtSubmit(const lgp::RunConfig& cfg) {
+  if (!cfg.data.scene.empty()) {
+    const fs::path p = resolved(cfg, cfg.data.scene);
+    auto j = readJsonDocument(p, kMaxSceneFileBytes);
+    if (!j) return Status::error("/data/scene: " + j.error());
+#ifdef LGP_HAVE_DATASETS
+    // Parsed and checked here; generated (or taken from the cache) by the job.
+    auto scene = lgp::datasets::parseScene(*j, p.string());
+    if (!scene) return Status::error("/data/scene: " + scene.error());
+    if (scene->rows() > kMaxSceneRows)
+      return Status::error("/data/scene: " + p.string() + ": the grid has " +
+                           std::to_string(scene->rows()) + " rows; lgpd generates at most " +
+                           std::to_string(kMaxSceneRows));
+    lgp::RawTable raw;
+    raw.names = scene->inputNames();
+    raw.default_inputs = raw.names;
+    raw.names.insert(raw.names.end(), scene->outputs.begin(), scene->outputs.end());
+    raw.default_outputs = scene->outputs;
+    auto cols = namesOf(std::move(raw), cfg, p.string());
+    if (!cols) return Status::error("/data/scene: " + cols.error());
+    return cols;
+#else
+    return Status::error("/data/scene: generated tables are not available in this build");
+#endif
+  }
+  if (cfg.data.path.empty()) return Status::error("/data/path: no table file named");
+  const fs::path p = resolved(cfg, cfg.data.path);
+  auto file = RegularFile::open(p);
+  if (!file) return Status::error("/data/path: " + file.error());
+  if (file->size() == 0) return Status::error("/data/path: " + p.string() + " is empty (0 bytes)");
+  if (file->size() <= kSubmitFullLoadBytes) {
+    // Small enough to read in full here: every value is checked before 201.
+    auto t = lgp::cli::loadRunTable(cfg);
+    if (!t) return t.status();
+    return TableColumns{t->input_names, t->output_names, true};
+  }
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  if (ext == ".csv") {
+    auto head = file->read(kCsvHeaderBytes);
+    if (!head) return Status::error("/data/path: " + p.string() + ": " + head.error());
+    auto names = csvHeader(*head, p.string());
+    if (!names) return Status::error("/data/path: " + names.error());
+    lgp::RawTable raw;
+    raw.names = std::move(*names);
+    auto cols = namesOf(std::move(raw), cfg, p.string());
+    if (!cols) return Status::error("/data/path: " + cols.error());
+    return cols;
+  }
+  // A large JSON table: its columns are known without reading it only when the config names
+  // them; the job reads it.
+  if (!cfg.data.inputs.empty() && !cfg.data.outputs.empty())
+    return TableColumns{cfg.data.inputs, cfg.data.outputs, true};
+  return TableColumns{};
+}
+
+Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumns& columns) {
+#ifdef LGP_HAVE_EMIT
+  auto refs = lgp::emit::parseReferences(cfg.references);
+  if (!refs) return refs.status();
+  for (size_t i = 0; i < refs->size(); ++i) {
+    const auto& r = (*refs)[i];
+    const std::string at = lgp::jsonPath("/references", i);
+    for (size_t k = 0; k < r.expr.size(); ++k)
+      if (r.expr[k].size() > kMaxReferenceTextBytes)
+        return Status::error((r.expr.size() > 1 ? lgp::jsonPath(at + "/expr", k) : at + "/expr") +
+                             ": at most " + std::to_string(kMaxReferenceTextBytes) +
+                             " bytes per formula (got " + std::to_string(r.expr[k].size()) + ")");
+    if (!columns.known) continue;
+    lgp::emit::ParseOptions po;
+    po.input_names = columns.inputs;
+    po.output_names = columns.outputs;
+    po.aliases = r.aliases;
+    auto pf = lgp::emit::parseFormula(r.expr, po);
+    if (!pf) return Status::error(at + "/expr: '" + r.name + "' does not parse: " + pf.error());
+    if (cfg.search.seed_references) {
+      const auto shape = cfg.shape(static_cast<int>(columns.inputs.size()),
+                                   static_cast<int>(columns.outputs.size()));
+      auto fit = lgp::fitToShape(pf->program, shape);
+      if (!fit)
+        return Status::error(at + ": '" + r.name +
+                             "' cannot seed this run (search.seed_references): " + fit.error());
+      if (auto v = lgp::validate(*fit, shape); !v)
+        return Status::error(at + ": '" + r.name +
+                             "' cannot seed this run (search.seed_references): " + v.message());
+    }
+  }
+  return Status::ok();
+#else
+  (void)columns;
+  if (cfg.search.seed_references)
+    return Status::error("/search/seed_references: this lgpd was built without the parser");
+  return Status::ok();
+#endif
+}
+
+}  // namespace lgpd
