@@ -4,6 +4,8 @@
 #include <random>
 #include <sstream>
 
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
 #include "lgp/datasets/generate.hpp"
 
 namespace lgp::datasets {
@@ -28,15 +30,16 @@ std::string hex(uint64_t v) {
 
 // Returns the payload if header, length and checksum all match; else an error saying why.
 Expected<std::string> readVerified(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) return Status::error("cannot open");
-  std::string header;
-  if (!std::getline(in, header)) return Status::error("empty file");
-  std::istringstream hs(header);
+  auto text = readInputFile(file);  // a regular file only, never a FIFO or a directory
+  if (!text) return text.status();
+  const size_t eol = text->find('\n');
+  if (text->empty()) return Status::error("empty file");
+  if (eol == std::string::npos) return Status::error("bad header");
+  std::istringstream hs(text->substr(0, eol));
   std::string magic, sum;
   size_t len = 0;
   if (!(hs >> magic >> sum >> len) || magic != "lgp-cache/1") return Status::error("bad header");
-  std::string payload((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string payload = text->substr(eol + 1);
   if (payload.size() != len)
     return Status::error("truncated (" + std::to_string(payload.size()) + " of " +
                          std::to_string(len) + " bytes)");
@@ -64,8 +67,11 @@ Expected<CachedTable> generateCached(const Scene& scene, const fs::path& dir,
   if (fs::exists(out.file, ec)) {
     auto payload = readVerified(out.file);
     if (payload) {
+      JsonLimits limits;
+      limits.max_bytes = payload->size();  // checked by readVerified
+      auto j = parseJson(*payload, limits);
       try {
-        auto g = fromTableJson(nlohmann::json::parse(*payload), out.file.string());
+        auto g = j ? fromTableJson(*j, out.file.string()) : Expected<GeneratedTable>(j.status());
         if (g) {
           out.table = std::move(*g);
           out.hit = true;

@@ -2,11 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <numbers>
 #include <sstream>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
 
 namespace lgp::datasets {
 
@@ -14,6 +14,8 @@ namespace {
 using nlohmann::json;
 
 const std::vector<std::string> kMuR = {"mu", "r"};
+// A scene is a few hundred bytes; explicit "values" grids stay far below this.
+constexpr size_t kMaxSceneFileBytes = size_t{64} << 20;
 
 std::string fmt(double v) {
   std::ostringstream s;
@@ -362,6 +364,20 @@ static Expected<Scene> parseSceneImpl(const json& j, const std::string& origin) 
     }
     s.grid.push_back(a);
   }
+  // The table is the Cartesian product: bounded before anything of that size is allocated.
+  {
+    double cells = 1;
+    std::string dims;
+    for (const auto& a : s.grid) {
+      cells *= static_cast<double>(a.values.size());
+      dims += (dims.empty() ? "" : " x ") + std::to_string(a.values.size());
+    }
+    if (cells > static_cast<double>(kMaxSceneCells)) {
+      p.fail("/grid", dims + " = " + fmt(cells) + " cells, more than the limit of " +
+                          std::to_string(kMaxSceneCells) + " (kMaxSceneCells)");
+      return Status::error(p.err);
+    }
+  }
   // accuracy
   if (j.contains("accuracy")) {
     const json& a = j["accuracy"];
@@ -390,15 +406,11 @@ Expected<Scene> parseScene(const json& j, const std::string& origin) {
 }
 
 Expected<Scene> loadScene(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) return Status::error(path.string() + ": cannot open scene file");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::parse_error& e) {
-    return Status::error(path.string() + ": invalid JSON: " + e.what());
-  }
-  return parseScene(j, path.string());
+  auto text = readInputFile(path, kMaxSceneFileBytes);
+  if (!text) return text.status();
+  auto j = parseJson(*text);
+  if (!j) return Status::error(path.string() + ": " + j.error());
+  return parseScene(*j, path.string());
 }
 
 json toJson(const Scene& s) {

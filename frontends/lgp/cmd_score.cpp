@@ -92,11 +92,9 @@ int scoreMain(int argc, char** argv) {
   const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   if (args.count("expr-file")) {
     for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
-      std::ifstream in(f);
-      if (!in) return fail("--expr-file: cannot open " + f);
-      std::stringstream ss;
-      ss << in.rdbuf();
-      texts.push_back(ss.str());
+      auto text = lgp::readInputFile(f, lgp::emit::kMaxFormulaBytes);
+      if (!text) return fail("--expr-file: " + text.error());
+      texts.push_back(std::move(*text));
     }
   }
   if (texts.empty()) return fail("give the formula with --expr or --expr-file");

@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 using namespace lgp::datasets;
 using nlohmann::json;
@@ -142,4 +146,40 @@ TEST(Scene, MalformedScenesAreErrorsNotCrashes) {
       EXPECT_EQ(s.error().rfind("s.json: /", 0), 0u) << s.error();
     }
   }
+}
+
+// The grid is bounded before anything of its size is allocated (a 100000 x 100000 grid
+// ended in a bare std::bad_alloc), and scene files are read with the checked reader.
+TEST(Scene, GridSizeIsLimited) {
+  json j = dfgScene();
+  j["grid"]["mu"] = {{"count", 100000}};
+  j["grid"]["r"] = {{"count", 100000}};
+  EXPECT_EQ(errorOf(j),
+            "s.json: /grid: 100000 x 100000 = 10000000000 cells, more than the "
+            "limit of 16777216 (kMaxSceneCells)");
+  j["grid"]["mu"] = {{"count", 4096}};
+  j["grid"]["r"] = {{"count", 4096}};  // exactly the limit
+  auto s = parseScene(j, "s.json");
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->rows(), kMaxSceneCells);
+  j["grid"]["r"] = {{"count", 4097}};
+  EXPECT_NE(errorOf(j).find("/grid: 4096 x 4097"), std::string::npos) << errorOf(j);
+}
+
+TEST(Scene, SceneFilesAreReadWithTheCheckedParser) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("lgp_scene_" + std::to_string(::getpid()));
+  fs::create_directories(dir / "a_dir.json");
+  auto d = loadScene(dir / "a_dir.json");
+  ASSERT_FALSE(d);
+  EXPECT_EQ(d.error(), (dir / "a_dir.json").string() + ": is a directory");
+  std::ofstream(dir / "dup.json") << R"({"outputs": ["A"], "outputs": ["B"]})";
+  auto dup = loadScene(dir / "dup.json");
+  ASSERT_FALSE(dup);
+  EXPECT_NE(dup.error().find("/outputs: key appears twice"), std::string::npos) << dup.error();
+  std::ofstream(dir / "deep.json") << std::string(100000, '[') << std::string(100000, ']');
+  auto deep = loadScene(dir / "deep.json");
+  ASSERT_FALSE(deep);
+  EXPECT_NE(deep.error().find("nested deeper than"), std::string::npos) << deep.error();
+  fs::remove_all(dir);
 }

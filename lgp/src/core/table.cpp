@@ -1,13 +1,57 @@
 #include "lgp/core/table.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cerrno>
+#include <cfloat>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <set>
 #include <sstream>
 
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/program.hpp"
+
 namespace lgp {
+
+Expected<std::string> readInputFile(const std::filesystem::path& path, size_t max_bytes) {
+  const std::string f = path.string();
+  // O_NONBLOCK: opening a FIFO for reading must not wait for a writer; it is refused below.
+  const int fd = ::open(f.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return Status::error(f + ": cannot open (" + std::strerror(errno) + ")");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0)
+    return Status::error(f + ": cannot stat (" + std::strerror(errno) + ")");
+  if (S_ISDIR(st.st_mode)) return Status::error(f + ": is a directory");
+  if (!S_ISREG(st.st_mode))
+    return Status::error(f + ": not a regular file (a FIFO, socket or device is not read)");
+  if (static_cast<unsigned long long>(st.st_size) > max_bytes)
+    return Status::error(f + ": " + std::to_string(st.st_size) + " bytes, more than the limit of " +
+                         std::to_string(max_bytes));
+  std::string text;
+  text.reserve(static_cast<size_t>(st.st_size));
+  char buf[1 << 16];
+  while (true) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return Status::error(f + ": read failed (" + std::strerror(errno) + ")");
+    }
+    if (n == 0) break;
+    if (text.size() + static_cast<size_t>(n) > max_bytes)
+      return Status::error(f + ": more than the limit of " + std::to_string(max_bytes) + " bytes");
+    text.append(buf, static_cast<size_t>(n));
+  }
+  return text;
+}
 
 Status Table::validate() const {
   if (inputs.empty()) return Status::error("table has no input columns");
@@ -22,10 +66,16 @@ Status Table::validate() const {
     if (col.size() != n)
       return Status::error("column '" + name + "' has " + std::to_string(col.size()) +
                            " rows, expected " + std::to_string(n));
-    for (size_t r = 0; r < n; ++r)
+    for (size_t r = 0; r < n; ++r) {
       if (!std::isfinite(col[r]))
         return Status::error("column '" + name + "', row " + std::to_string(r + 1) +
                              ": value is not finite");
+      if (!fitsFloat32(col[r]))
+        return Status::error(
+            "column '" + name + "', row " + std::to_string(r + 1) + ": " + formatDouble(col[r]) +
+            " is beyond the float32 range (|v| <= " + formatDouble(kTableValueMax) +
+            "); the search evaluates in float32: rescale the column");
+    }
     return Status::ok();
   };
   for (size_t i = 0; i < inputs.size(); ++i)
@@ -38,8 +88,15 @@ Status Table::validate() const {
     for (size_t r = 0; r < n; ++r) {
       if (!std::isfinite(weights[r]) || weights[r] < 0)
         return Status::error("weights, row " + std::to_string(r + 1) + ": must be finite and >= 0");
+      if (!fitsFloat32(weights[r]))
+        return Status::error("weights, row " + std::to_string(r + 1) + ": " +
+                             formatDouble(weights[r]) +
+                             " is beyond the float32 range (<= " + formatDouble(kTableValueMax) +
+                             "); rows are weighed in float32: rescale the weights (only their "
+                             "ratios matter)");
       sum += weights[r];
     }
+    if (!std::isfinite(sum)) return Status::error("weights: their sum overflows double");
     if (!(sum > 0)) return Status::error("weights sum to zero");
   }
   return Status::ok();
@@ -79,13 +136,22 @@ std::vector<std::string> splitCsv(const std::string& line) {
 
 Expected<RawTable> readCsv(const std::filesystem::path& path) {
   const std::string f = path.string();
-  std::ifstream in(path);
-  if (!in) return Status::error(f + ": cannot open file");
+  auto text = readInputFile(path);
+  if (!text) return text.status();
+  std::string_view rest = *text;
+  if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);  // UTF-8 byte order mark
+  auto getline = [&](std::string& line) {
+    if (rest.empty()) return false;
+    const size_t e = rest.find('\n');
+    line.assign(rest.substr(0, e));
+    rest.remove_prefix(e == std::string_view::npos ? rest.size() : e + 1);
+    return true;
+  };
   RawTable t;
   std::string line;
   size_t lineno = 0;
   // Header (skipping blank and '#' comment lines).
-  while (std::getline(in, line)) {
+  while (getline(line)) {
     ++lineno;
     if (trim(line).empty() || trim(line)[0] == '#') continue;
     t.names = splitCsv(line);
@@ -101,7 +167,7 @@ Expected<RawTable> readCsv(const std::filesystem::path& path) {
                            "'): duplicate name");
   }
   t.columns.resize(t.names.size());
-  while (std::getline(in, line)) {
+  while (getline(line)) {
     ++lineno;
     if (trim(line).empty() || trim(line)[0] == '#') continue;
     const auto cells = splitCsv(line);
@@ -114,10 +180,13 @@ Expected<RawTable> readCsv(const std::filesystem::path& path) {
       char* end = nullptr;
       errno = 0;
       const double v = s.empty() ? NAN : std::strtod(s.c_str(), &end);
-      if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v) || errno == ERANGE)
+      // ERANGE on underflow (1e-310, a subnormal, or 1e-400, which is 0) is a finite value and
+      // accepted; on overflow strtod returns HUGE_VAL, which isfinite refuses.
+      if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
         return Status::error(f + ": line " + std::to_string(lineno) + ", column " +
                              std::to_string(c + 1) + " ('" + t.names[c] + "'): '" + s +
-                             "' is not a finite number");
+                             "' is not " +
+                             (errno == ERANGE ? "within the range of double" : "a finite number"));
       t.columns[c].push_back(v);
     }
   }
@@ -188,15 +257,13 @@ Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& f)
 
 Expected<RawTable> readJsonTable(const std::filesystem::path& path) {
   const std::string f = path.string();
-  std::ifstream in(path);
-  if (!in) return Status::error(f + ": cannot open file");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(f + ": invalid JSON: " + e.what());
-  }
-  return parseJsonTable(j, f);
+  auto text = readInputFile(path);
+  if (!text) return text.status();
+  JsonLimits limits;
+  limits.max_bytes = kMaxInputFileBytes;
+  auto j = parseJson(*text, limits);
+  if (!j) return Status::error(f + ": " + j.error());
+  return parseJsonTable(*j, f);
 }
 
 Expected<RawTable> readTableFile(const std::filesystem::path& path) {

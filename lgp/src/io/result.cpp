@@ -1,5 +1,8 @@
 #include "lgp/io/result.hpp"
 
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
+
 #include <unistd.h>
 
 #include <cerrno>
@@ -146,17 +149,17 @@ namespace {
 Expected<nlohmann::json> readJsonDocument(const std::filesystem::path& path,
                                           const std::string& format) {
   const std::string f = path.string();
-  std::ifstream in(path);
-  if (!in) return Status::error(f + ": cannot open");
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(f + ": invalid JSON: " + e.what());
-  }
+  auto text = readInputFile(path);  // a regular file only: never blocks on a FIFO
+  if (!text) return text.status();
+  // Fronts and checkpoints nest programs inside members inside islands: a dozen levels.
+  JsonLimits limits;
+  limits.max_bytes = kMaxInputFileBytes;
+  auto parsed = parseJson(*text, limits);
+  if (!parsed) return Status::error(f + ": " + parsed.error());
+  const nlohmann::json& j = *parsed;
   if (!j.is_object() || j.value("format", "") != format)
     return Status::error(f + ": /format: expected \"" + format + "\"");
-  return j;
+  return parsed;
 }
 }  // namespace
 

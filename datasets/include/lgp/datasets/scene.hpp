@@ -29,6 +29,10 @@
 //   N (needs a sphere light)                                   inputs (r, theta_s |
 //   tan_half_theta_s)
 // Rows: the Cartesian product of the grids, the first input varying fastest.
+// Limits: at most 100000 points per axis ("count") and kMaxSceneCells = 16,777,216 (2^24,
+// e.g. 4096 x 4096) rows in all, checked when the scene is parsed (the error names /grid);
+// a scene file is read only if it is a regular file of at most 64 MiB (lgp::readInputFile)
+// and parsed with lgp::parseJson (depth, duplicate keys, number range).
 #pragma once
 
 #include <filesystem>
@@ -82,6 +86,8 @@ struct Scene {
   bool wants(const std::string& output) const;
   bool needs(Effect e) const;  // does any requested output need this effect?
 };
+
+inline constexpr size_t kMaxSceneCells = size_t{1} << 24;
 
 // The known outputs, in canonical order.
 const std::vector<std::string>& knownOutputs();

@@ -9,9 +9,19 @@
 //     "weights": [...],                                   // optional, one per row, >= 0
 //     "errors":  { "A": [...], "B": [...] },              // optional per-entry error estimates
 //     "meta": { ... } }                                   // optional, free-form
-// CSV: a header row of column names, then one row of numbers per sample.
+// CSV: a header row of column names, then one row of numbers per sample; a UTF-8 byte
+// order mark at the start is skipped.
+//
+// Values: finite, and within the float32 range (rounding to at most kTableValueMax =
+// FLT_MAX, about 3.4e38, in magnitude), since the search evaluates in float32; the error
+// names the column and row.
+// Values below float32's smallest subnormal (1e-310, say) are finite and accepted; float32
+// rounds them to 0. Weights: finite, >= 0, <= kTableValueMax, with a positive sum.
 #pragma once
 
+#include <cfloat>
+#include <cmath>
+#include <cstddef>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -21,6 +31,21 @@
 #include "lgp/core/status.hpp"
 
 namespace lgp {
+
+inline constexpr double kTableValueMax = FLT_MAX;
+// Whether v rounds to a finite float32 (|v| up to FLT_MAX plus half an ulp).
+inline bool fitsFloat32(double v) {
+  return std::isfinite(static_cast<float>(v));
+}
+// Largest table, scene or front file read (4 GiB).
+inline constexpr size_t kMaxInputFileBytes = size_t{1} << 32;
+
+// Reads a whole input file. Only a regular file is read: a directory gives "<path>: is a
+// directory", a FIFO, socket or device "<path>: not a regular file" (opened without
+// blocking, so a FIFO cannot stall the reader), a file over max_bytes is refused. Every
+// error names the path.
+Expected<std::string> readInputFile(const std::filesystem::path& path,
+                                    size_t max_bytes = kMaxInputFileBytes);
 
 struct Table {
   std::vector<std::string> input_names;
