@@ -9,7 +9,8 @@
 
 namespace lgp::cli {
 
-Expected<Table> loadRunTable(const RunConfig& cfg) {
+namespace {
+Expected<Table> loadTable(const RunConfig& cfg) {
   if (!cfg.data.scene.empty()) {
 #ifdef LGP_HAVE_DATASETS
     // Generate (or fetch from the cache) the scene's table, then select columns exactly as
@@ -29,6 +30,18 @@ Expected<Table> loadRunTable(const RunConfig& cfg) {
 #endif
   }
   return loadTableFile(cfg.data, cfg.base_dir);
+}
+}  // namespace
+
+Expected<Table> loadRunTable(const RunConfig& cfg) {
+  auto t = loadTable(cfg);
+  if (!t) return t;
+  // Before the search: values the float32 evaluation cannot hold would leave every error
+  // NaN or infinite, and the front empty.
+  if (auto s = checkErrorNumerics(*t, cfg.errorConfig(t->output_names)); !s)
+    return Status::error((cfg.data.scene.empty() ? "/data/path" : "/data/scene") +
+                         std::string(": ") + s.message());
+  return t;
 }
 
 }  // namespace lgp::cli

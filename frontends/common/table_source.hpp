@@ -7,6 +7,8 @@
 
 namespace lgp::cli {
 
+// The table, checked as the search will use it (checkErrorNumerics under the config's error
+// settings): an error names the data field, the column and the row.
 Expected<Table> loadRunTable(const RunConfig& cfg);
 
 }  // namespace lgp::cli

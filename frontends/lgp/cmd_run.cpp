@@ -186,8 +186,7 @@ int runMain(int argc, char** argv) {
       ck = lgp::readCheckpointFile(cfg->output.checkpoint);
       if (!ck) return fail(ck.error(), 2);
       if (lgp::Search::adoptCheckpointIslands(*cfg, *ck) && !quiet)
-        std::fprintf(stderr, "lgp: %d islands, as in the checkpoint\n",
-                     cfg->search.islands.count);
+        std::fprintf(stderr, "lgp: %d islands, as in the checkpoint\n", cfg->search.islands.count);
     }
     single = std::make_unique<lgp::Search>(*cfg, std::move(*table));
     if (resume)
@@ -294,6 +293,21 @@ int runMain(int argc, char** argv) {
   const lgp::Search& search = stepped ? stepped->result() : *single;
 
   const auto front = search.front();
+  if (front.empty()) {
+    // Not a result: every program scored NaN or infinity (which the archive never keeps), or
+    // none was scored. No front is written, and the exit status says the run failed.
+    const auto p = search.progress();
+    std::string why =
+        p.evaluations == 0
+            ? "no program was evaluated (stopped before the first generation)"
+            : "none of the " + std::to_string(p.evaluations) +
+                  " programs evaluated had a finite error, cost and discontinuity (NaN and "
+                  "infinite errors are never kept): the targets, weights or target transforms "
+                  "overflow the float32 evaluation or its sums";
+    return fail("the search ended with an empty front: " + why + "; no front written to " +
+                    cfg->output.front_json,
+                g_interrupts.load() > 0 ? 130 : 1);
+  }
   auto j = lgp::frontToJson(search, front);
   if (!mpi_stats.is_null()) j["progress"]["mpi"] = mpi_stats;
 #ifdef LGP_HAVE_EMIT

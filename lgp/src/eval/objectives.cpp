@@ -159,6 +159,69 @@ double DiscontinuityModel::programDiscontinuity(const Program& p,
   return d;
 }
 
+Status checkErrorNumerics(const Table& t, const ErrorConfig& cfg) {
+  if (auto s = t.validate(); !s) return s;
+  const size_t n = t.rows();
+  auto weight = [&](size_t r) { return t.weights.empty() ? 1.0 : t.weights[r]; };
+  auto sums = [&](const std::string& what, const std::vector<double>& y) -> Status {
+    double s1 = 0, s2 = 0;
+    for (size_t r = 0; r < n; ++r) {
+      s1 += weight(r) * std::fabs(y[r]);
+      s2 += weight(r) * y[r] * y[r];
+    }
+    if (!std::isfinite(s1) || !std::isfinite(s2))
+      return Status::error(what + ": the weighted sum of its " +
+                           std::string(std::isfinite(s1) ? "squares" : "values") +
+                           " overflows double: rescale the targets or the weights");
+    return Status::ok();
+  };
+  // mean_rel weighs row r by w / max(|y|, rel_floor), in float32.
+  auto relWeights = [&](const std::string& name, const std::vector<double>& y) -> Status {
+    if (cfg.metric != ErrorMetric::MeanRel) return Status::ok();
+    for (size_t r = 0; r < n; ++r) {
+      const double rw = weight(r) / std::max(std::fabs(y[r]), cfg.rel_floor);
+      if (!fitsFloat32(rw))
+        return Status::error(name + ", row " + std::to_string(r + 1) +
+                             ": the mean_rel weight w/max(|y|, rel_floor) = " + formatDouble(rw) +
+                             " is beyond the float32 range: raise /objectives/rel_floor (" +
+                             formatDouble(cfg.rel_floor) + ")");
+    }
+    return Status::ok();
+  };
+  for (size_t o = 0; o < t.numOutputs(); ++o) {
+    const std::string name = "output '" + t.output_names[o] + "'";
+    if (auto s = sums(name, t.outputs[o]); !s) return s;
+    if (cfg.channels.empty())
+      if (auto s = relWeights(name, t.outputs[o]); !s) return s;
+    const TargetTransform tr =
+        o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
+    if (tr == TargetTransform::None) continue;
+    std::vector<double> ty(n);
+    for (size_t r = 0; r < n; ++r) {
+      ty[r] = applyTransform(tr, t.outputs[o][r]);
+      if (!std::isfinite(ty[r]))
+        return Status::error(name + ", row " + std::to_string(r + 1) + ": its " +
+                             std::string(toString(tr)) + " transform is not finite");
+    }
+    if (auto s = sums(name + " (" + std::string(toString(tr)) + ")", ty); !s) return s;
+  }
+  for (const auto& ch : cfg.channels) {
+    const std::string name = "error channel '" + ch.name + "'";
+    std::vector<double> y(n, 0.0);
+    for (size_t r = 0; r < n; ++r) {
+      for (size_t o = 0; o < t.numOutputs() && o < ch.weights.size(); ++o)
+        if (ch.weights[o] != 0) y[r] += ch.weights[o] * t.outputs[o][r];
+      if (!fitsFloat32(y[r]))
+        return Status::error(name + ", row " + std::to_string(r + 1) + ": its target " +
+                             formatDouble(y[r]) + " is beyond the float32 range (|v| <= " +
+                             formatDouble(kTableValueMax) + "): rescale the channel weights");
+    }
+    if (auto s = sums(name, y); !s) return s;
+    if (auto s = relWeights(name, y); !s) return s;
+  }
+  return Status::ok();
+}
+
 double float32ErrorFloor(const ErrorConfig& cfg, const Table& t) {
   constexpr double u = 0x1p-24;
   double total = 0, worst = 0;

@@ -213,6 +213,14 @@ double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales);
 // (core/snap.hpp) treats error changes below it as none.
 double float32ErrorFloor(const ErrorConfig& cfg, const Table& t);
 
+// Whether the table, under this error config, stays within what the float32 evaluation and
+// its double sums represent, so that some program can have a finite error. Checked before a
+// search starts (lgp run, lgpd): every value within the float32 range (Table::validate), each
+// error channel's target (its weighted sum of outputs) within it too, transformed targets
+// finite, and the weighted sums of the targets and of their squares (what rmse, mae, r2 and
+// linear scaling add up) finite in double. The message names the output or channel and row.
+Status checkErrorNumerics(const Table& t, const ErrorConfig& cfg);
+
 // Metrics in double precision via the reference evaluator (the "double check path").
 std::vector<OutputMetrics> referenceMetrics(const Program& p, const Table& original,
                                             const ErrorConfig& cfg);
