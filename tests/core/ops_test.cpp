@@ -26,6 +26,8 @@ TEST(Ops, PiecewiseSetMatchesSpec) {
   }
 }
 
+// The gpu-generic column of the cost table in docs/cost-models.md (transcendentals 4,
+// modifiers abs/neg/saturate 0), which gives the vendor documents it is derived from.
 TEST(Ops, GenericCostModelFollowsPublishedRatios) {
   auto c = [](Op op) { return opInfo(op).cost[static_cast<int>(CostTarget::GpuGeneric)]; };
   EXPECT_EQ(c(Op::Mad), 1);
