@@ -67,3 +67,33 @@ TEST(Quadrature, QmcErrorEstimateCoversTheTruth) {
   EXPECT_LT(e.error[0], 1e-2);
   EXPECT_EQ(e.evals, 4096u * 8u);
 }
+
+TEST(Quadrature, ManyBoxesSumWithoutDriftAndTheEstimateCoversRounding) {
+  // 4096 boxes of an order-32/64 rule: every box is summed on its own and the boxes in
+  // compensated arithmetic, so the total stays within a few ulps; the estimate includes the
+  // rounding floor, so it is never below what double precision can deliver.
+  auto f = [](const std::array<double, 1>& p, std::array<double, 1>& o) { o[0] = std::exp(p[0]); };
+  std::vector<Box<1>> boxes;
+  for (int i = 0; i < 4096; ++i) boxes.push_back({{i / 4096.0}, {(i + 1) / 4096.0}});
+  auto e = gaussProduct<1, 1>(f, std::span<const Box<1>>(boxes), 32);
+  const double exact = std::exp(1.0) - 1.0;
+  EXPECT_NEAR(e.value[0], exact, 4e-16);
+  EXPECT_GE(e.error[0], kRoundoff * exact);
+  EXPECT_LE(std::abs(e.value[0] - exact), e.error[0]);
+  AdaptiveOptions o;
+  o.abs_tol = 1e-13;
+  auto a = adaptive<1, 1>(f, std::span<const Box<1>>(boxes), o);
+  EXPECT_NEAR(a.value[0], exact, 4e-16);
+  EXPECT_LE(std::abs(a.value[0] - exact), a.error[0]);
+}
+
+TEST(Quadrature, ScaledRegionEstimate) {
+  // Never below the raw difference; grows where the rules differ by more than 1/c^3 of the
+  // variation; unchanged (raw) once the region is resolved.
+  EXPECT_EQ(detail::scaledError(0.0, 1.0), 0.0);
+  EXPECT_EQ(detail::scaledError(1e-12, 1.0), 1e-12);
+  EXPECT_EQ(detail::scaledError(1e-5, 1.0), 1e-5);  // below 1/c^3 = 1.25e-4: resolved
+  EXPECT_GT(detail::scaledError(1e-2, 1.0), 5 * 1e-2);
+  EXPECT_LE(detail::scaledError(0.5, 1.0), 1.0);
+  EXPECT_EQ(detail::scaledError(1e-6, 0.0), 1e-6);
+}

@@ -1,17 +1,20 @@
-// Integrators for the ground-truth generators , in double precision.
+// Integrators for the ground-truth generators, in double precision.
 //
 // All three integrate a vector-valued integrand f: R^D -> R^K over a union of axis-aligned
 // boxes, and return the integral with a per-component error estimate:
 //   * gaussProduct: product Gauss-Legendre rule of order n on every box. The value is the
 //     order-2n result; the error estimate is |Q_n - Q_2n| (conservative for Q_2n).
 //   * adaptive: globally adaptive subdivision. Every region carries Q (order-n product rule
-//     on the region) and Q' (the same rule on its 2^D children); the error estimate is
-//     max_k |Q_k - Q'_k|. A max-heap pops the region with the largest estimate and replaces it
-//     by its children until the summed estimate is <= max(abs_tol, rel_tol*|I|) for every
-//     component or the evaluation budget is spent.
+//     on the region) and Q' (the same rule on its 2^D children); its estimate for component k
+//     is |Q_k - Q'_k|, scaled up where the region is unresolved (detail::scaledError). A
+//     max-heap pops the region with the largest estimate and replaces it by its children until
+//     the summed estimate is <= max(abs_tol, rel_tol*|I|) for every component or the
+//     evaluation budget is spent.
 //   * qmc: randomly shifted (Cranley-Patterson) Hammersley/Halton points. The value is the
 //     mean over `shifts` independent shifts; the error estimate is 3 standard errors.
-// Gauss-Legendre nodes are computed by Newton iteration on the Legendre recurrence.
+// The deterministic estimates add a rounding floor, kRoundoff * integral |f|, and sum in
+// compensated arithmetic. Gauss-Legendre nodes are computed by Newton iteration on the
+// Legendre recurrence.
 #pragma once
 
 #include <algorithm>
@@ -54,20 +57,29 @@ double boxVolume(const Box<D>& b) {
   return v;
 }
 
-// Product rule on one box; adds into `acc`.
+// Product rule on one box; adds into `acc` (and sum |w f| into `l1` when given). The box is
+// summed on its own first, row by row, so that a long run of boxes does not lose the small
+// terms to a large running total.
 template <int D, int K, class F>
 void productRule(const F& f, const Box<D>& b, const GaussRule& g, std::array<double, K>& acc,
-                 uint64_t& evals) {
+                 uint64_t& evals, std::array<double, K>* l1 = nullptr) {
   const int n = static_cast<int>(g.x.size());
   std::array<double, D> p{};
-  std::array<double, K> out{};
+  std::array<double, K> out{}, box{}, box_abs{};
   if constexpr (D == 1) {
     const double h = b.hi[0] - b.lo[0];
     for (int i = 0; i < n; ++i) {
       p[0] = b.lo[0] + h * g.x[i];
       out.fill(0.0);
       f(p, out);
-      for (int k = 0; k < K; ++k) acc[k] += h * g.w[i] * out[k];
+      for (int k = 0; k < K; ++k) {
+        box[k] += g.w[i] * out[k];
+        box_abs[k] += g.w[i] * std::abs(out[k]);
+      }
+    }
+    for (int k = 0; k < K; ++k) {
+      box[k] *= h;
+      box_abs[k] *= h;
     }
     evals += n;
   } else {
@@ -75,17 +87,43 @@ void productRule(const F& f, const Box<D>& b, const GaussRule& g, std::array<dou
     const double h0 = b.hi[0] - b.lo[0], h1 = b.hi[1] - b.lo[1];
     for (int i = 0; i < n; ++i) {
       p[0] = b.lo[0] + h0 * g.x[i];
+      std::array<double, K> row{}, row_abs{};
       for (int j = 0; j < n; ++j) {
         p[1] = b.lo[1] + h1 * g.x[j];
         out.fill(0.0);
         f(p, out);
-        const double w = h0 * h1 * g.w[i] * g.w[j];
-        for (int k = 0; k < K; ++k) acc[k] += w * out[k];
+        for (int k = 0; k < K; ++k) {
+          row[k] += g.w[j] * out[k];
+          row_abs[k] += g.w[j] * std::abs(out[k]);
+        }
       }
+      for (int k = 0; k < K; ++k) {
+        box[k] += g.w[i] * row[k];
+        box_abs[k] += g.w[i] * row_abs[k];
+      }
+    }
+    for (int k = 0; k < K; ++k) {
+      box[k] *= h0 * h1;
+      box_abs[k] *= h0 * h1;
     }
     evals += static_cast<uint64_t>(n) * n;
   }
+  for (int k = 0; k < K; ++k) {
+    acc[k] += box[k];
+    if (l1) (*l1)[k] += box_abs[k];
+  }
 }
+
+// Compensated (Neumaier) running sum.
+struct CompensatedSum {
+  double s = 0, c = 0;
+  void add(double x) {
+    const double t = s + x;
+    c += std::abs(s) >= std::abs(x) ? (s - t) + x : (x - t) + s;
+    s = t;
+  }
+  double value() const { return s + c; }
+};
 
 template <int D>
 std::array<Box<D>, (1 << D)> children(const Box<D>& b) {
@@ -128,20 +166,31 @@ inline double radicalInverse(uint32_t base, uint64_t i) {
 }
 }  // namespace detail
 
+// Relative rounding floor added to every deterministic estimate: kRoundoff * integral |f|
+// (integrand evaluation, the substitutions and the sums each lose a few ulps; 64 eps covers
+// them with a margin, and no estimate claims more than double precision delivers).
+inline constexpr double kRoundoff = 64 * 2.220446049250313e-16;
+
 template <int D, int K, class F>
 Estimate<K> gaussProduct(const F& f, std::span<const Box<D>> boxes, int n) {
   Estimate<K> e;
-  std::array<double, K> lo{}, hi{};
+  std::array<detail::CompensatedSum, K> lo{}, hi{};
+  std::array<double, K> l1{};
   const GaussRule& g1 = gaussLegendre(n);
   const GaussRule& g2 = gaussLegendre(2 * n);
   for (const auto& b : boxes) {
     if (detail::boxVolume(b) <= 0) continue;
-    detail::productRule<D, K>(f, b, g1, lo, e.evals);
-    detail::productRule<D, K>(f, b, g2, hi, e.evals);
+    std::array<double, K> ql{}, qh{};
+    detail::productRule<D, K>(f, b, g1, ql, e.evals);
+    detail::productRule<D, K>(f, b, g2, qh, e.evals, &l1);
+    for (int k = 0; k < K; ++k) {
+      lo[k].add(ql[k]);
+      hi[k].add(qh[k]);
+    }
   }
   for (int k = 0; k < K; ++k) {
-    e.value[k] = hi[k];
-    e.error[k] = std::abs(hi[k] - lo[k]);
+    e.value[k] = hi[k].value();
+    e.error[k] = std::abs(hi[k].value() - lo[k].value()) + kRoundoff * l1[k];
   }
   e.regions = static_cast<int>(boxes.size());
   return e;
@@ -154,27 +203,89 @@ struct AdaptiveOptions {
   uint64_t max_evals = 2000000;  // budget; `converged` is false when it is spent
 };
 
+namespace detail {
+// A region's error estimate from the difference `raw` of its two rules (the rule on the region
+// and on its children), scaled up the way QUADPACK scales |K - G| (Piessens et al. 1983):
+//   err = max(raw, resasc * min(1, (c raw / resasc)^1.5)),   resasc = int |f - mean| over it.
+// It is never scaled down, and grows only where the two rules still differ by more than
+// 1 / c^3 of the integrand's variation, i.e. where the region is not yet resolved and the
+// difference can understate the error of the finer rule. QUADPACK's c = 200 belongs to a
+// 10-point Gauss rule against its 21-point Kronrod extension; here c = 20, measured on a
+// 41 x 41 dfg table against an independent reference: with the raw difference the truth came
+// within 1/2.5 of the estimate, with c = 20 within 1/9, at a third more integrand evaluations.
+inline constexpr double kScaleC = 20.0;
+inline double scaledError(double raw, double resasc) {
+  if (!(resasc > 0) || raw <= 0) return raw;
+  return std::max(raw, resasc * std::min(1.0, std::pow(kScaleC * raw / resasc, 1.5)));
+}
+}  // namespace detail
+
 template <int D, int K, class F>
 Estimate<K> adaptive(const F& f, std::span<const Box<D>> boxes, const AdaptiveOptions& o) {
   constexpr int C = 1 << D;
   struct Region {
     Box<D> box;
-    std::array<double, K> coarse{}, fine{};
+    std::array<double, K> coarse{}, fine{}, fine_abs{}, errk{};
     std::array<std::array<double, K>, C> child{};
-    double err = 0;
+    double err = 0;  // max over components: the heap's key
   };
   const GaussRule& g = gaussLegendre(o.order);
+  const int n = static_cast<int>(g.x.size());
+  const int per_child = D == 1 ? n : n * n;
   Estimate<K> e;
-  auto refine = [&](Region& r) {  // r.coarse already set; computes children
+  std::vector<std::array<double, K>> vals(static_cast<size_t>(C) * per_child);
+  std::vector<double> wts(static_cast<size_t>(C) * per_child);
+  // Applies the rule to the 2^D children of r.box (r.coarse already set), keeping the values,
+  // then sets fine, fine_abs and the per-component scaled estimates.
+  auto refine = [&](Region& r) {
     auto cb = detail::children<D>(r.box);
     r.fine.fill(0.0);
+    r.fine_abs.fill(0.0);
+    size_t idx = 0;
     for (int c = 0; c < C; ++c) {
-      r.child[c].fill(0.0);
-      detail::productRule<D, K>(f, cb[c], g, r.child[c], e.evals);
-      for (int k = 0; k < K; ++k) r.fine[k] += r.child[c][k];
+      const Box<D>& b = cb[c];
+      std::array<double, D> p{};
+      std::array<double, K> sum{};
+      if constexpr (D == 1) {
+        const double h = b.hi[0] - b.lo[0];
+        for (int i = 0; i < n; ++i, ++idx) {
+          p[0] = b.lo[0] + h * g.x[i];
+          vals[idx].fill(0.0);
+          f(p, vals[idx]);
+          wts[idx] = h * g.w[i];
+          for (int k = 0; k < K; ++k) sum[k] += wts[idx] * vals[idx][k];
+        }
+      } else {
+        static_assert(D == 2, "1-D and 2-D only");
+        const double h0 = b.hi[0] - b.lo[0], h1 = b.hi[1] - b.lo[1];
+        for (int i = 0; i < n; ++i) {
+          p[0] = b.lo[0] + h0 * g.x[i];
+          for (int j = 0; j < n; ++j, ++idx) {
+            p[1] = b.lo[1] + h1 * g.x[j];
+            vals[idx].fill(0.0);
+            f(p, vals[idx]);
+            wts[idx] = h0 * h1 * g.w[i] * g.w[j];
+            for (int k = 0; k < K; ++k) sum[k] += wts[idx] * vals[idx][k];
+          }
+        }
+      }
+      r.child[c] = sum;
+      for (int k = 0; k < K; ++k) r.fine[k] += sum[k];
     }
+    e.evals += static_cast<uint64_t>(C) * per_child;
+    const double vol = detail::boxVolume(r.box);
     r.err = 0;
-    for (int k = 0; k < K; ++k) r.err = std::max(r.err, std::abs(r.fine[k] - r.coarse[k]));
+    for (int k = 0; k < K; ++k) {
+      const double mean = r.fine[k] / vol;
+      double resasc = 0, resabs = 0;
+      for (size_t i = 0; i < idx; ++i) {
+        resasc += wts[i] * std::abs(vals[i][k] - mean);
+        resabs += wts[i] * std::abs(vals[i][k]);
+      }
+      r.fine_abs[k] = resabs;
+      r.errk[k] = detail::scaledError(std::abs(r.fine[k] - r.coarse[k]), resasc);
+      r.err = std::max(r.err, r.errk[k]);
+    }
   };
   auto cmp = [](const Region& a, const Region& b) { return a.err < b.err; };
   std::vector<Region> heap;
@@ -187,14 +298,18 @@ Estimate<K> adaptive(const F& f, std::span<const Box<D>> boxes, const AdaptiveOp
     heap.push_back(r);
   }
   std::make_heap(heap.begin(), heap.end(), cmp);
+  std::array<double, K> l1{};
   auto totals = [&](std::array<double, K>& val, std::array<double, K>& err) {
-    val.fill(0.0);
+    std::array<detail::CompensatedSum, K> v{};
     err.fill(0.0);
+    l1.fill(0.0);
     for (const auto& r : heap)
       for (int k = 0; k < K; ++k) {
-        val[k] += r.fine[k];
-        err[k] += std::abs(r.fine[k] - r.coarse[k]);
+        v[k].add(r.fine[k]);
+        err[k] += r.errk[k];
+        l1[k] += r.fine_abs[k];
       }
+    for (int k = 0; k < K; ++k) val[k] = v[k].value();
   };
   std::array<double, K> val{}, err{};
   totals(val, err);
@@ -214,7 +329,7 @@ Estimate<K> adaptive(const F& f, std::span<const Box<D>> boxes, const AdaptiveOp
     heap.pop_back();
     for (int k = 0; k < K; ++k) {  // incremental update of the totals
       val[k] -= parent.fine[k];
-      err[k] -= std::abs(parent.fine[k] - parent.coarse[k]);
+      err[k] -= parent.errk[k];
     }
     auto cb = detail::children<D>(parent.box);
     for (int c = 0; c < C; ++c) {
@@ -224,7 +339,7 @@ Estimate<K> adaptive(const F& f, std::span<const Box<D>> boxes, const AdaptiveOp
       refine(r);
       for (int k = 0; k < K; ++k) {
         val[k] += r.fine[k];
-        err[k] += std::abs(r.fine[k] - r.coarse[k]);
+        err[k] += r.errk[k];
       }
       heap.push_back(r);
       std::push_heap(heap.begin(), heap.end(), cmp);
@@ -236,7 +351,7 @@ Estimate<K> adaptive(const F& f, std::span<const Box<D>> boxes, const AdaptiveOp
   }
   totals(val, err);
   e.value = val;
-  e.error = err;
+  for (int k = 0; k < K; ++k) e.error[k] = err[k] + kRoundoff * l1[k];
   e.regions = static_cast<int>(heap.size());
   if (!done()) e.converged = false;
   return e;
