@@ -14,8 +14,12 @@
 // with cos(phi_max) = -cot(theta_v) cot(2 theta_h) up to theta_h = pi/4 + theta_v/2; the
 // integral is split there, so the Gauss rules never straddle the n.l = 0 kink, and the
 // partial piece uses a smoothstep substitution that removes the square-root endpoints.
-// G2 falls to zero within ~alpha of the n.l = 0 edges (a band the CDF squeezes to ~alpha^3),
-// so the initial partition adds geometric breakpoints at alpha 2^k from those edges.
+// G2 / (n.v) falls to zero within ~min(alpha, n.v) of the n.l = 0 edges (a band the CDF
+// squeezes to ~alpha^3), so the initial partition adds geometric breakpoints at
+// min(alpha, n.v) 2^k from those edges; and, in the full-circle piece, at theta_h = alpha 2^k,
+// since the CDF also squeezes the far tail (theta_h >> alpha, where the Fresnel weight and G2
+// vary) into 1 - u ~ (alpha / theta_h)^2. Without those, the estimate of a 41 x 41 table on
+// [0.02, 1]^2 (r = 0.02, mu = 0.167) was 4.4e-7 against a true error of 2.3e-6.
 // The QMC integrator instead samples (u, u2) over the whole square (an independent check).
 //
 // Limits: alpha = 0 is the mirror limit taken at fixed mu: E = 1, A = 1 - (1 - mu)^5,
