@@ -1,5 +1,6 @@
 #include "lgp/datasets/zh.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -67,7 +68,10 @@ Estimate<6> moments(double mu, double r, Diffuse model, const IntegratorOptions&
   std::span<const Box<2>> boxes(&box, 1);
   if (opt.kind == IntegratorKind::Gauss) return gaussProduct<2, 6>(f, boxes, opt.order);
   AdaptiveOptions ao;
-  ao.abs_tol = 0.25 * opt.abs_tol;  // moments feed ratios; keep a margin
+  // Moments feed ratios: keep a margin. beta = k / (sin theta_v + k (1 - mu)) divides the error
+  // of m_x by sin theta_v, so near mu = 1 the moments are resolved that much further (the
+  // integrand is smooth: it costs little). Below sin theta_v = 1e-4 beta is the limit instead.
+  ao.abs_tol = 0.25 * opt.abs_tol * (sv >= 1e-4 ? std::min(1.0, sv) : 1.0);
   ao.order = opt.adaptive_order;
   ao.max_evals = opt.max_evals;
   return adaptive<2, 6>(f, boxes, ao);

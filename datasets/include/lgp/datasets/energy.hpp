@@ -1,11 +1,14 @@
-// energy: Kulla-Conty energy compensation terms (Kulla & Conty 2017, "Revisiting Physically Based Shading at Imageworks").
+// energy: Kulla-Conty energy compensation terms (Kulla & Conty 2017, "Revisiting Physically Based
+// Shading at Imageworks").
 //
 //   E(mu, r)    = integral of f_spec(l, v) (n.l) dl with F = 1      (see dfg.hpp)
 //   1 - E(mu, r)
 //   E_avg(r)    = 2 integral_0^1 E(mu) mu dmu
 //               = 4 integral_0^1 E(x^2) x^3 dx   (x = sqrt(mu): smooth near grazing)
 // E_avg uses Gauss-Legendre in x with 16 and 24 nodes; its error estimate is the difference
-// of the two plus the node errors of E weighted by the rule.
+// of the two plus the node errors of E weighted by the rule. When 4 sqrt(alpha) < 1/4 the
+// grazing layer of E (mu ~ alpha) gets a panel [0, 4 sqrt(alpha)] of its own, with 8 and 12
+// nodes.
 //   F_avg       = 2 integral_0^1 F(mu) mu dmu = F0 + (F90 - F0) / 21 for Schlick (closed form,
 //                 used as a check of the quadrature).
 #pragma once
