@@ -103,15 +103,8 @@ int runMain(int argc, char** argv) {
   auto cfg = [&]() -> lgp::Expected<lgp::RunConfig> {
 #ifdef LGP_HAVE_MPI
     if (distributed) {
-      lgp::Expected<std::string> text = lgp::Status::error(config_path + ": cannot open config");
-      if (root) {
-        std::ifstream in(config_path);
-        if (in) {
-          std::stringstream ss;
-          ss << in.rdbuf();
-          text = ss.str();
-        }
-      }
+      lgp::Expected<std::string> text = lgp::Status::error(config_path + ": not read");
+      if (root) text = lgp::readInputFile(config_path, lgp::kMaxConfigBytes);
       auto shared = lgp::mpi::shareBytes(text);
       if (!shared) return shared.status();
       return lgp::parseRunConfigText(*shared, config_path);

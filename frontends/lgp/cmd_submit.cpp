@@ -16,6 +16,8 @@
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "daemon_client.hpp"
+#include "lgp/config/config.hpp"
+#include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
 
 namespace lgp::cli {
@@ -55,18 +57,17 @@ int submitMain(int argc, char** argv) {
   if (const int* code = std::get_if<int>(&parsed)) return *code;
   const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const fs::path cfg_path = args["config"].as<std::string>();
-  std::ifstream f(cfg_path);
-  if (!f) {
-    std::fprintf(stderr, "error: cannot read %s\n", cfg_path.c_str());
+  auto text = lgp::readInputFile(cfg_path, lgp::kMaxConfigBytes);
+  if (!text) {
+    std::fprintf(stderr, "error: %s\n", text.error().c_str());
     return 2;
   }
-  json cfg;
-  try {
-    cfg = json::parse(f);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s: %s\n", cfg_path.c_str(), e.what());
+  auto parsed_cfg = lgp::parseJson(*text);
+  if (!parsed_cfg) {
+    std::fprintf(stderr, "error: %s: %s\n", cfg_path.c_str(), parsed_cfg.error().c_str());
     return 2;
   }
+  json cfg = std::move(*parsed_cfg);
   if (!cfg.is_object()) {
     std::fprintf(stderr, "error: %s: not a JSON object\n", cfg_path.c_str());
     return 2;

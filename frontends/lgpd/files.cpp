@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
 
 namespace lgpd {
 
@@ -72,22 +73,8 @@ Expected<std::string> RegularFile::read(size_t max_bytes) {
   return out;
 }
 
-Expected<std::string> readRegularFile(const std::filesystem::path& p, size_t max_bytes) {
-  auto f = RegularFile::open(p);
-  if (!f) return f.status();
-  if (f->size() > max_bytes)
-    return Status::error(p.string() + " is too large (" + std::to_string(f->size()) +
-                         " bytes; at most " + std::to_string(max_bytes) + ")");
-  auto text = f->read(max_bytes + 1);
-  if (!text) return Status::error(p.string() + ": " + text.error());
-  if (text->size() > max_bytes)
-    return Status::error(p.string() + " is too large (more than " + std::to_string(max_bytes) +
-                         " bytes)");
-  return text;
-}
-
 Expected<nlohmann::json> readJsonDocument(const std::filesystem::path& p, size_t max_bytes) {
-  auto text = readRegularFile(p, max_bytes);
+  auto text = lgp::readInputFile(p, max_bytes);  // regular files only, never blocks
   if (!text) return text.status();
   lgp::JsonLimits limits;
   limits.max_bytes = max_bytes;

@@ -38,10 +38,8 @@ class RegularFile {
   size_t size_ = 0;
 };
 
-// The whole file, which must be a regular file of at most `max_bytes` bytes.
-lgp::Expected<std::string> readRegularFile(const std::filesystem::path& p, size_t max_bytes);
-
-// readRegularFile, then lgp::parseJson (depth, size, number range, duplicate keys). The
+// lgp::readInputFile (a regular file of at most `max_bytes`, opened without blocking), then
+// lgp::parseJson (depth, size, number range, duplicate keys). The
 // error starts with the path.
 lgp::Expected<nlohmann::json> readJsonDocument(const std::filesystem::path& p, size_t max_bytes);
 

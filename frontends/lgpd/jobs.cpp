@@ -672,6 +672,13 @@ void JobManager::runJob(Job& job) {
       std::lock_guard lock(job.search_mutex);
       job.search = nullptr;
     }
+    // An empty front is not a result (as for `lgp run`): every program scored NaN or infinity,
+    // which the archive never keeps. A cancelled run may end empty.
+    if (status == RunStatus::Finished && search->front().empty())
+      return fail("the search ended with an empty front: none of the " +
+                  std::to_string(p.evaluations) +
+                  " programs evaluated had a finite error, cost and discontinuity (the targets, "
+                  "weights or target transforms overflow the float32 evaluation or its sums)");
     auto s = store_.finishRun(id, status, &front, countersOf(p, best), "");
     if (!s) return fail(s.message());
     spdlog::info("run {} {}: generation {}, {} evaluations, front of {}", id, toString(status),

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/table.hpp"
 
 namespace lgp {
 
@@ -525,11 +526,10 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
 }
 
 Expected<RunConfig> loadRunConfig(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) return Status::error(path.string() + ": cannot open config");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseRunConfigText(text.str(), path);
+  // A regular file only, read without blocking: a directory or a FIFO is named, not parsed.
+  auto text = readInputFile(path, kMaxConfigBytes);
+  if (!text) return text.status();
+  return parseRunConfigText(*text, path);
 }
 
 Expected<RunConfig> parseRunConfigText(const std::string& text, const std::filesystem::path& path) {

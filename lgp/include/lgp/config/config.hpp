@@ -203,6 +203,8 @@ std::string_view toString(MigrationMode m);
 // Parses and validates. Errors name the JSON path, e.g.
 // "/search/population: must be an integer >= 4 (got 2)" or "/search/popsize: unknown key".
 Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesystem::path& base_dir);
+// Largest run config file read (configs are small; a table goes in its own file).
+inline constexpr size_t kMaxConfigBytes = size_t{64} << 20;
 Expected<RunConfig> loadRunConfig(const std::filesystem::path& path);
 // The same for a config's text read elsewhere (e.g. by MPI rank 0); `path` names it in errors
 // and gives the directory relative data paths start from.

@@ -30,7 +30,8 @@ struct JsonLimits {
 // report without a path: nesting deeper than max_depth, text longer than max_bytes, a number
 // outside the range of double ("1e999", a 400-digit integer) and a key that appears twice in
 // one object (nlohmann keeps the last). The error names the position or the JSON Pointer:
-//   "nested deeper than 64 levels (at byte 65)", "/data/weights: key 'path' appears twice".
+//   "JSON nested deeper than 64 levels (at byte 64)",
+//   "/data/path: key appears twice in one object".
 Expected<nlohmann::json> parseJson(std::string_view text, const JsonLimits& limits = {});
 
 // The pointer to member `key` (or element `index`) of the value at `parent` ("" = the whole
