@@ -167,11 +167,15 @@ Expected<GeneratedTable> generate(const Scene& s, const GenerateOptions& opt) {
       integ["abs_tol_per_integral"] = io.abs_tol;
       integ["points_per_dim_per_region"] = io.adaptive_order;
       integ["max_evals_per_integral"] = io.max_evals;
-      integ["error_estimate"] = "sum over regions of |Q_region - Q_children|";
+      integ["error_estimate"] =
+          "sum over regions of |Q_region - Q_children|, scaled up where a region is unresolved "
+          "(max(raw, resasc min(1, (20 raw / resasc)^1.5))), plus a rounding floor of 64 eps int "
+          "|f|";
       break;
     case IntegratorKind::Gauss:
       integ["order"] = io.order;
-      integ["error_estimate"] = "|Q_n - Q_2n|";
+      integ["error_estimate"] =
+          "sum over boxes of |Q_n - Q_2n|, plus a rounding floor of 64 eps int |f|";
       break;
     case IntegratorKind::Qmc:
       integ["points_per_shift"] = io.qmc_points;

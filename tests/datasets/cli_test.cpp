@@ -82,7 +82,7 @@ TEST(DataCli, WritesLoadableTablesPlotsAndUsesTheCache) {
   EXPECT_EQ(t->output_names, (std::vector<std::string>{"A", "B"}));
   EXPECT_EQ(t->rows(), 30u);
   EXPECT_TRUE(t->validate()) << t->validate().message();
-  EXPECT_EQ(raw->meta["generator_version"], "lgp-datasets/1.0.0");
+  EXPECT_EQ(raw->meta["generator_version"], "lgp-datasets/1.1.0");
   EXPECT_TRUE(fs::exists(d / "t_A_heatmap.svg"));
   EXPECT_TRUE(fs::exists(d / "t_B_slices.svg"));
 

@@ -24,7 +24,7 @@
 
 namespace lgp::datasets {
 
-inline constexpr const char* kGeneratorVersion = "lgp-datasets/1.0.0";
+inline constexpr const char* kGeneratorVersion = "lgp-datasets/1.1.0";
 
 struct GenerateOptions {
   int threads = 0;  // OpenMP threads; 0 = the OpenMP default
