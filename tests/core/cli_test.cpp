@@ -1,9 +1,11 @@
 // The `lgp` CLI end to end: a run writes its front, bad input exits non-zero with a message
 // naming the field (or file, row and column), and Ctrl-C still writes the front.
 #include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "../shell.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -16,19 +18,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result sh(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using lgp_test::Result;
+using lgp_test::sh;
 
 class Cli : public ::testing::Test {
  protected:

@@ -2,9 +2,11 @@
 // that crashed, stalled or was accepted without a word is refused with a message that names
 // the file, field, column or row, and a run never ends with an empty front and exit 0.
 #include <gtest/gtest.h>
+
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "../shell.hpp"
 
 #include <cfloat>
 #include <cstdio>
@@ -22,19 +24,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result sh(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using lgp_test::Result;
+using lgp_test::sh;
 
 bool contains(const std::string& s, const std::string& what) {
   return s.find(what) != std::string::npos;

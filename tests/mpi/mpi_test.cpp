@@ -3,9 +3,11 @@
 // still written; a killed rank ends the job, and the last checkpoint resumes on 2 ranks, on 3
 // and in one process.
 #include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "../shell.hpp"
 
 #include <chrono>
 #include <cstdio>
@@ -21,19 +23,8 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result sh(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using lgp_test::Result;
+using lgp_test::sh;
 
 json readJson(const fs::path& p) {
   std::ifstream in(p);
