@@ -115,11 +115,20 @@ TEST(Objectives, CostAndDiscontinuityCountEffectiveOpcodesOnly) {
             Instr{Op::Abs, {R(0)}}, Instr{Op::Mad, {R(2), X(0), X(0)}}};
   p.constants = {};
   p.outputs = {3};
+  auto price = [](const CostModel& m, Op op) { return m.cost[static_cast<int>(op)]; };
+  auto guard = [](const CostModel& m, Op op) { return m.guard[static_cast<int>(op)]; };
+  // Without a domain the exp2's clamp may be reached, so its guard is priced; the intron is not.
   const auto generic = CostModel::preset(CostTarget::GpuGeneric);
-  EXPECT_EQ(generic.programCost(p), 4 + 0 + 1);
-  EXPECT_EQ(CostModel::preset(CostTarget::Cpu).programCost(p), 8 + 1 + 1);
+  EXPECT_EQ(generic.programCost(p), price(generic, Op::Exp2) + guard(generic, Op::Exp2) +
+                                        price(generic, Op::Abs) + price(generic, Op::Mad));
+  const auto cpu = CostModel::preset(CostTarget::Cpu);
+  EXPECT_EQ(cpu.programCost(p), price(cpu, Op::Exp2) + price(cpu, Op::Abs) + price(cpu, Op::Mad));
+  // On x0 in [0, 1] the clamp is never reached and abs of a positive value goes: exp2 + mad.
+  const auto onUnit = CostModel::preset(CostTarget::GpuGeneric, {Interval{0.0, 1.0, false}});
+  EXPECT_EQ(onUnit.programCost(p), price(generic, Op::Exp2) + price(generic, Op::Mad));
   EXPECT_EQ(DiscontinuityModel::defaults().programDiscontinuity(p), 1);  // abs only
-  EXPECT_EQ(generic.transformCost({TargetTransform::Log, TargetTransform::None}), 5);
+  EXPECT_EQ(generic.transformCost({TargetTransform::Log, TargetTransform::None}),
+            price(generic, Op::Exp));
 }
 
 }  // namespace

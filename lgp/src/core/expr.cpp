@@ -624,6 +624,14 @@ class Simplifier {
       case Op::Neg:
         if (isNeg(a[0])) return arg0(a[0]);
         break;
+      case Op::Pow:
+        // pow(a, b) is exp2(b * log2(a)) with the protected log2 and exp2 (ops.hpp): with a
+        // constant base the logarithm folds and a multiply and an exp2 remain, bit for bit.
+        if (node(a[0]).isConst()) {
+          const double l = applyOp(o_.precision, Op::Log2, node(a[0]).value, 0, 0, 0);
+          if (std::isfinite(l)) return make1(Op::Exp2, make2(Op::Mul, a[1], constant(l)));
+        }
+        break;
       case Op::Square:
         if (isNeg(a[0]) || isOp(a[0], Op::Abs)) return make1(Op::Square, arg0(a[0]));
         break;
@@ -763,14 +771,6 @@ int countPiecewise(const Dag& d) {
   for (size_t i = 0; i < d.nodes.size(); ++i)
     if (r[i] && d.nodes[i].isOp() && opInfo(d.nodes[i].op).piecewise) ++n;
   return n;
-}
-
-double dagCost(const Dag& d, const std::array<double, kNumOps>& cost) {
-  const auto r = d.reachable();
-  double c = 0;
-  for (size_t i = 0; i < d.nodes.size(); ++i)
-    if (r[i] && d.nodes[i].isOp()) c += cost[static_cast<int>(d.nodes[i].op)];
-  return c;
 }
 
 }  // namespace lgp

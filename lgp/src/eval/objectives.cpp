@@ -73,43 +73,6 @@ double invertTransform(TargetTransform t, double v) {
   return invert<double>(t, v);
 }
 
-CostModel CostModel::preset(CostTarget t) {
-  CostModel m;
-  m.target = t;
-  for (const auto& i : allOps()) m.cost[static_cast<int>(i.op)] = i.cost[static_cast<int>(t)];
-  return m;
-}
-
-double CostModel::programCost(const Program& p) const {
-  return programCost(p, effectiveIndices(p));
-}
-
-double CostModel::programCost(const Program& p, const std::vector<int>& effective) const {
-  double c = 0;
-  for (int i : effective) c += cost[static_cast<int>(p.code[i].op)];
-  return c;
-}
-
-double CostModel::transformCost(const std::vector<TargetTransform>& ts) const {
-  double c = 0;
-  for (auto t : ts) {
-    switch (t) {
-      case TargetTransform::None:
-        break;
-      case TargetTransform::Log:
-        c += cost[static_cast<int>(Op::Exp)];
-        break;
-      case TargetTransform::Sqrt:
-        c += cost[static_cast<int>(Op::Square)];
-        break;
-      case TargetTransform::Rcp:
-        c += cost[static_cast<int>(Op::Rcp)];
-        break;
-    }
-  }
-  return c;
-}
-
 DiscontinuityModel DiscontinuityModel::defaults() {
   DiscontinuityModel m;
   for (const auto& i : allOps()) m.weight[static_cast<int>(i.op)] = i.piecewise ? 1.0 : 0.0;
@@ -798,14 +761,6 @@ Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& sca
     q.outputs[o] = static_cast<uint8_t>(q.code.size() - 1);
   }
   return q;
-}
-
-double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales) {
-  double c = 0;
-  for (const LinearScale& s : scales) {
-    if (!s.identity()) c += m.cost[static_cast<int>(s.op())];
-  }
-  return c;
 }
 
 namespace {

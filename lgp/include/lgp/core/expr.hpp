@@ -106,7 +106,8 @@ constexpr bool isProtected(Op op) {
 //            (-x)*c -> x*(-c); (-x)*(-y) -> x*y; abs(-x) -> abs(x); (-x)^2 -> x^2;
 //            abs(abs x), saturate(saturate x) -> inner; min(x, x), max(x, x) -> x;
 //            select(a, b, c, c) -> c; select(a, a, c, d) -> d; mad(1, x, y) -> x + y;
-//            mad(-1, x, y) -> y - x; mad(c1, c2, y) -> (c1*c2) + y.
+//            mad(-1, x, y) -> y - x; mad(c1, c2, y) -> (c1*c2) + y;
+//            pow(c, x) -> exp2(x * log2(c)) (pow's own definition, the log2 folded).
 //   proven   by the intervals (`domain`; without it only what holds on the whole line):
 //            x + 0 -> x and mad(a, b, 0) -> a*b where the sum cannot be -0 or its sign is
 //            free (above); 0 - x -> -x likewise; mad(0, x, c) -> c where x is finite;
@@ -137,7 +138,5 @@ double applyOp(Precision p, Op op, double a, double b, double c, double d);
 
 // Number of effective piecewise operators.
 int countPiecewise(const Dag& d);
-// Cost of the DAG under a per-op cost table (each node once).
-double dagCost(const Dag& d, const std::array<double, kNumOps>& cost);
 
 }  // namespace lgp

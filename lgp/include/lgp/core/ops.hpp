@@ -35,74 +35,91 @@ inline constexpr float kMinPos = 1.17549435e-38f;  // FLT_MIN: floor of log/rsqr
 inline constexpr float kExpClamp = 126.0f;         // |exponent| limit of exp2/exp/pow
 inline constexpr int kMaxArity = 4;
 
-// Cost targets. Costs are in "FMA-equivalent issue slots" of the target; docs/cost-models.md
-// derives every entry and cites its sources (NVIDIA's CUDA C++ Programming Guide and PTX ISA,
-// AMD's GCN and RDNA ISA guides, LLVM's AMDGPU scheduling model, x86 instruction tables).
-// gpu-generic: FMA-class 1, special function 4, source modifiers (abs, neg, saturate) free.
-// nvidia: SFU (MUFU) ops 4 (16-32 vs 64-128 results/clk/SM), sqrt = rsq+rcp, div = rcp+mul.
-// gcn: quarter-rate transcendentals 4, native v_sqrt, sin/cos need a 1/2pi pre-multiply.
-// rdna: GFX10 scheduling latency of transcendentals 10 against 5 for other VALU ops, so 2.
+// Cost targets (eval/cost_model.hpp; docs/cost-models.md derives every entry).
+// rdna, gcn: machine instructions, fitted by least squares to what Mesa's ACO compiler emits
+//   for RDNA2 (navi21) and GCN5 (vega10) through RADV's null device (bench/cost: 2400 random
+//   programs over every operator plus published formulas; held-out RMS error 0.8 and 0.9
+//   instructions). Prices are fractional where the compiler fuses (a mul feeding an add
+//   becomes one fma) or folds (neg and abs are source modifiers most of the time).
+// gpu-generic: the mean of the RDNA2, RDNA3 and GCN5 fits.
+// nvidia: issue slots from NVIDIA's documented throughputs: SFU (MUFU) ops 4, sqrt = rsq+rcp,
+//   div = rcp+mul; no guard, literal or modifier prices (no compiler to measure them with).
 // cpu: AVX2 reciprocal throughput relative to an FMA, with the vectorised polynomial libm
-// (eval/vecmath.hpp) for exp/log/sin/cos.
+//   (eval/vecmath.hpp) for exp/log/sin/cos.
 enum class CostTarget : uint8_t { GpuGeneric, Nvidia, Gcn, Rdna, Cpu };
 inline constexpr int kNumCostTargets = 5;
 inline constexpr std::array<std::string_view, kNumCostTargets> kCostTargetNames = {
     "gpu-generic", "nvidia", "gcn", "rdna", "cpu"};
+// Per target, what the cost model (eval/cost_model.hpp) prices beside the operators: a distinct
+// constant the ISA cannot encode inline, a neg or abs that cannot be a source modifier, and a
+// saturate that cannot be the clamp bit of the instruction writing its operand.
+struct CostExtras {
+  double literal;
+  double unfolded_neg_abs;
+  double unfolded_saturate;
+};
+inline constexpr std::array<CostExtras, kNumCostTargets> kCostExtras = {
+    {{0.25, 0.25, 0.5}, {0, 0, 0}, {0.25, 0, 0.25}, {0.25, 0.25, 0.5}, {0, 0, 0}}};
 
-// X(Enum, name, arity, piecewise, guarded, {generic, nvidia, gcn, rdna, cpu}, infix, hlsl, glsl,
-//   cpp)
+// X(Enum, name, arity, piecewise, guarded, cost {generic, nvidia, gcn, rdna, cpu}, guard cost
+//   {same targets}, infix, hlsl, glsl, cpp)
+// cost: the operator's price per DAG node; guard cost: what its protected branch adds where
+// interval analysis cannot prove it unreachable on the table's domain (cost_model.hpp).
 // piecewise: the operator has a branch (counts towards discontinuity unless the interval
 // analysis proves the branch never switches on the table's domain). guarded: the operator has a
 // protected branch (guard, floor, clamp, or saturate's NaN -> 0) that the emitters reproduce
 // with a helper unless it is proven unreachable. Templates use {0}..{3} for operands. `infix`
 // is the function-call spelling the parser accepts (the formula printer, core/formula.hpp,
 // prints arithmetic with operators instead); it names protected functions by their op name.
-#define LGP_OPS(X)                                                                                \
-  X(Add, "add", 2, false, false, (1, 1, 1, 1, 1), "({0} + {1})", "({0} + {1})", "({0} + {1})",    \
-    "({0} + {1})")                                                                                \
-  X(Sub, "sub", 2, false, false, (1, 1, 1, 1, 1), "({0} - {1})", "({0} - {1})", "({0} - {1})",    \
-    "({0} - {1})")                                                                                \
-  X(Mul, "mul", 2, false, false, (1, 1, 1, 1, 1), "({0} * {1})", "({0} * {1})", "({0} * {1})",    \
-    "({0} * {1})")                                                                                \
-  X(Div, "div", 2, false, true, (5, 5, 5, 3, 4), "({0} / {1})", "({0} / {1})", "({0} / {1})",     \
-    "({0} / {1})")                                                                                \
-  X(Mad, "mad", 3, false, false, (1, 1, 1, 1, 1), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",     \
-    "({0} * {1} + {2})", "({0} * {1} + {2})")                                                     \
-  X(Neg, "neg", 1, false, false, (0, 0, 0, 0, 1), "(-{0})", "(-{0})", "(-{0})", "(-{0})")         \
-  X(Rcp, "rcp", 1, false, true, (4, 4, 4, 2, 4), "rcp({0})", "rcp({0})", "(1.0 / {0})",           \
-    "(1.0f / {0})")                                                                               \
-  X(Sqrt, "sqrt", 1, false, true, (4, 8, 4, 2, 4), "sqrt({0})", "sqrt({0})", "sqrt({0})",         \
-    "std::sqrt({0})")                                                                             \
-  X(Rsqrt, "rsqrt", 1, false, true, (4, 4, 4, 2, 5), "rsqrt({0})", "rsqrt({0})",                  \
-    "inversesqrt({0})", "(1.0f / std::sqrt({0}))")                                                \
-  X(Square, "square", 1, false, false, (1, 1, 1, 1, 1), "square({0})", "({0} * {0})",             \
-    "({0} * {0})", "({0} * {0})")                                                                 \
-  X(Exp2, "exp2", 1, false, true, (4, 4, 4, 2, 8), "exp2({0})", "exp2({0})", "exp2({0})",         \
-    "std::exp2({0})")                                                                             \
-  X(Log2, "log2", 1, false, true, (4, 4, 4, 2, 8), "log2({0})", "log2({0})", "log2({0})",         \
-    "std::log2({0})")                                                                             \
-  X(Exp, "exp", 1, false, true, (5, 5, 5, 3, 9), "exp({0})", "exp({0})", "exp({0})",              \
-    "std::exp({0})")                                                                              \
-  X(Log, "log", 1, false, true, (5, 5, 5, 3, 9), "log({0})", "log({0})", "log({0})",              \
-    "std::log({0})")                                                                              \
-  X(Pow, "pow", 2, false, true, (9, 9, 9, 5, 17), "pow({0}, {1})", "pow({0}, {1})",               \
-    "pow({0}, {1})", "std::pow({0}, {1})")                                                        \
-  X(Sin, "sin", 1, false, false, (4, 4, 5, 3, 10), "sin({0})", "sin({0})", "sin({0})",            \
-    "std::sin({0})")                                                                              \
-  X(Cos, "cos", 1, false, false, (4, 4, 5, 3, 10), "cos({0})", "cos({0})", "cos({0})",            \
-    "std::cos({0})")                                                                              \
-  X(Min, "min", 2, true, false, (1, 1, 1, 1, 1), "min({0}, {1})", "min({0}, {1})",                \
-    "min({0}, {1})", "std::min({0}, {1})")                                                        \
-  X(Max, "max", 2, true, false, (1, 1, 1, 1, 1), "max({0}, {1})", "max({0}, {1})",                \
-    "max({0}, {1})", "std::max({0}, {1})")                                                        \
-  X(Abs, "abs", 1, true, false, (0, 0, 0, 0, 1), "abs({0})", "abs({0})", "abs({0})",              \
-    "std::fabs({0})")                                                                             \
-  X(Saturate, "saturate", 1, true, true, (0, 0, 0, 0, 2), "saturate({0})", "saturate({0})",       \
-    "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                        \
-  X(Lerp, "lerp", 3, false, false, (2, 2, 2, 2, 2), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", \
-    "mix({0}, {1}, {2})", "({0} + ({1} - {0}) * {2})")                                            \
-  X(Select, "select", 4, true, false, (2, 2, 2, 2, 2), "select({0}, {1}, {2}, {3})",              \
-    "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})")
+#define LGP_OPS(X)                                                                                 \
+  X(Add, "add", 2, false, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "({0} + {1})", "({0} + {1})",   \
+    "({0} + {1})", "({0} + {1})")                                                                  \
+  X(Sub, "sub", 2, false, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "({0} - {1})", "({0} - {1})",   \
+    "({0} - {1})", "({0} - {1})")                                                                  \
+  X(Mul, "mul", 2, false, false, (0.75, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "({0} * {1})",         \
+    "({0} * {1})", "({0} * {1})", "({0} * {1})")                                                   \
+  X(Div, "div", 2, false, true, (1.75, 5, 1.5, 1.5, 4), (5.5, 0, 6.5, 4.75, 0), "({0} / {1})",     \
+    "({0} / {1})", "({0} / {1})", "({0} / {1})")                                                   \
+  X(Mad, "mad", 3, false, false, (1.25, 1, 1.25, 1.25, 1), (0, 0, 0, 0, 0), "mad({0}, {1}, {2})",  \
+    "mad({0}, {1}, {2})", "({0} * {1} + {2})", "({0} * {1} + {2})")                                \
+  X(Neg, "neg", 1, false, false, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0), "(-{0})", "(-{0})",      \
+    "(-{0})", "(-{0})")                                                                            \
+  X(Rcp, "rcp", 1, false, true, (0.75, 4, 0.75, 0.75, 4), (5.5, 0, 6.5, 4.75, 0), "rcp({0})",      \
+    "rcp({0})", "(1.0 / {0})", "(1.0f / {0})")                                                     \
+  X(Sqrt, "sqrt", 1, false, true, (1, 8, 0.75, 0.75, 4), (2, 0, 2, 1.75, 0), "sqrt({0})",          \
+    "sqrt({0})", "sqrt({0})", "std::sqrt({0})")                                                    \
+  X(Rsqrt, "rsqrt", 1, false, true, (1, 4, 0.75, 0.75, 5), (2, 0, 2.5, 1.75, 0), "rsqrt({0})",     \
+    "rsqrt({0})", "inversesqrt({0})", "(1.0f / std::sqrt({0}))")                                   \
+  X(Square, "square", 1, false, false, (1, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "square({0})",      \
+    "({0} * {0})", "({0} * {0})", "({0} * {0})")                                                   \
+  X(Exp2, "exp2", 1, false, true, (0.75, 4, 0.75, 0.75, 8), (4.5, 0, 5.5, 4, 0), "exp2({0})",      \
+    "exp2({0})", "exp2({0})", "std::exp2({0})")                                                    \
+  X(Log2, "log2", 1, false, true, (0.5, 4, 0.5, 0.5, 8), (2.75, 0, 3.5, 2.5, 0), "log2({0})",      \
+    "log2({0})", "log2({0})", "std::log2({0})")                                                    \
+  X(Exp, "exp", 1, false, true, (1.75, 5, 1.5, 1.5, 9), (3.25, 0, 3.75, 2.75, 0), "exp({0})",      \
+    "exp({0})", "exp({0})", "std::exp({0})")                                                       \
+  X(Log, "log", 1, false, true, (2, 5, 1.75, 1.75, 9), (2.25, 0, 2.75, 2, 0), "log({0})",          \
+    "log({0})", "log({0})", "std::log({0})")                                                       \
+  X(Pow, "pow", 2, false, true, (2.75, 9, 2.25, 2.5, 17), (7.25, 0, 9, 6.25, 0), "pow({0}, {1})",  \
+    "pow({0}, {1})", "pow({0}, {1})", "std::pow({0}, {1})")                                        \
+  X(Sin, "sin", 1, false, false, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0), "sin({0})", "sin({0})",  \
+    "sin({0})", "std::sin({0})")                                                                   \
+  X(Cos, "cos", 1, false, false, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0), "cos({0})", "cos({0})",  \
+    "cos({0})", "std::cos({0})")                                                                   \
+  X(Min, "min", 2, true, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "min({0}, {1})",                 \
+    "min({0}, {1})", "min({0}, {1})", "std::min({0}, {1})")                                        \
+  X(Max, "max", 2, true, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "max({0}, {1})",                 \
+    "max({0}, {1})", "max({0}, {1})", "std::max({0}, {1})")                                        \
+  X(Abs, "abs", 1, true, false, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0), "abs({0})", "abs({0})",   \
+    "abs({0})", "std::fabs({0})")                                                                  \
+  X(Saturate, "saturate", 1, true, true, (0.5, 0, 0.5, 0.25, 2), (0, 0, 0, 0, 0), "saturate({0})", \
+    "saturate({0})", "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                        \
+  X(Lerp, "lerp", 3, false, false, (1.25, 2, 1.25, 1.25, 2), (0, 0, 0, 0, 0),                      \
+    "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", "mix({0}, {1}, {2})",                            \
+    "({0} + ({1} - {0}) * {2})")                                                                   \
+  X(Select, "select", 4, true, false, (2.25, 2, 2.5, 2, 2), (0, 0, 0, 0, 0),                       \
+    "select({0}, {1}, {2}, {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})",        \
+    "(({0} > {1}) ? {2} : {3})")
 
 enum class Op : uint8_t {
 #define LGP_X_ENUM(E, ...) E,
@@ -122,9 +139,10 @@ struct OpInfo {
   int arity;
   bool piecewise;  // counts towards the discontinuity objective by default
   bool guarded;    // has a protected branch (see the semantics at the top)
-  std::array<double, kNumCostTargets> cost;
-  std::string_view infix;  // readable form, {0}..{3} placeholders
-  std::string_view hlsl;   // raw (unprotected) spelling per language
+  std::array<double, kNumCostTargets> cost;        // per target, the operator itself
+  std::array<double, kNumCostTargets> guard_cost;  // per target, its guard where it stays
+  std::string_view infix;                          // readable form, {0}..{3} placeholders
+  std::string_view hlsl;                           // raw (unprotected) spelling per language
   std::string_view glsl;
   std::string_view cpp;
 };
@@ -132,8 +150,8 @@ struct OpInfo {
 namespace detail {
 #define LGP_X_COST(a, b, c, d, e) \
   { a, b, c, d, e }
-#define LGP_X_INFO(E, NAME, AR, PW, GD, COST, INF, HL, GL, CP) \
-  OpInfo{Op::E, NAME, AR, PW, GD, LGP_X_COST COST, INF, HL, GL, CP},
+#define LGP_X_INFO(E, NAME, AR, PW, GD, COST, GCOST, INF, HL, GL, CP) \
+  OpInfo{Op::E, NAME, AR, PW, GD, LGP_X_COST COST, LGP_X_COST GCOST, INF, HL, GL, CP},
 inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
 #undef LGP_X_INFO
 #undef LGP_X_COST

@@ -22,6 +22,7 @@
 #include "lgp/core/interval.hpp"
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
+#include "lgp/eval/cost_model.hpp"
 #include "lgp/eval/interpreter.hpp"
 
 namespace lgp {
@@ -41,19 +42,6 @@ std::optional<OutputCombine> outputCombineFromString(std::string_view s);
 double applyTransform(TargetTransform t, double y);
 // Inverse, applied to predictions before measuring error.
 double invertTransform(TargetTransform t, double v);
-
-// Per-operator costs of a model, after config overrides.
-struct CostModel {
-  CostTarget target = CostTarget::GpuGeneric;
-  std::array<double, kNumOps> cost{};
-  static CostModel preset(CostTarget t);
-  double programCost(const Program& p) const;  // effective opcodes only
-  // The same, given effectiveIndices(p) (callers that need them anyway compute them once).
-  double programCost(const Program& p, const std::vector<int>& effective) const;
-  // Cost of the inverse transforms the emitted code appends (log -> exp, sqrt -> square,
-  // rcp -> rcp), added to every member's cost so fronts stay honest.
-  double transformCost(const std::vector<TargetTransform>& t) const;
-};
 
 // Discontinuity: the weighted count of effective piecewise operators whose branch may switch
 // on `domain` (interval.hpp: abs of a value that keeps its sign, saturate of a value inside
@@ -204,8 +192,6 @@ class Scorer {
 // new constant slots; outputs become designated. The result computes exactly what
 // Scorer::error() measured.
 Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales);
-// Cost of those opcodes.
-double scalingCost(const CostModel& m, const std::vector<LinearScale>& scales);
 
 // The error a float32 evaluation of the exact formula reaches on `t` by rounding alone:
 // 2^-24 times the targets' RMS (rmse), mean |y| (mae) or max |y| (max_abs), or 2^-24
