@@ -89,11 +89,44 @@ TEST(Config, OverridesAndTransformsApply) {
   auto c = parseRunConfig(j, ".");
   ASSERT_TRUE(c) << c.error();
   EXPECT_EQ(c->costModel().cost[static_cast<int>(Op::Div)], 2.5);
-  EXPECT_EQ(c->costModel().cost[static_cast<int>(Op::Exp2)], 4);
+  // The operators not overridden keep the gcn table's prices.
+  EXPECT_EQ(c->costModel().cost[static_cast<int>(Op::Sqrt)],
+            CostModel::preset(CostTarget::Gcn).cost[static_cast<int>(Op::Sqrt)]);
+  EXPECT_NE(c->costModel().cost[static_cast<int>(Op::Sqrt)],
+            CostModel::preset(CostTarget::GpuGeneric).cost[static_cast<int>(Op::Sqrt)]);
   EXPECT_EQ(c->discontinuityModel().weight[static_cast<int>(Op::Abs)], 0.25);
   EXPECT_EQ(c->errorConfig({"y"}).transforms[0], TargetTransform::Log);
   j["data"]["transforms"] = {{"z", "log"}};
   EXPECT_NE(errorOf(j).find("/data/transforms/z"), std::string::npos);
+}
+
+TEST(Config, MeasuredCostFamiliesAndSwitch) {
+  json j = minimal();
+  auto d = parseRunConfig(j, ".");
+  ASSERT_TRUE(d) << d.error();
+  EXPECT_EQ(d->objectives.measured_cost.families, allGpuFamilies());
+  EXPECT_FALSE(d->objectives.measured_cost.in_search);
+  j["objectives"] = {{"measured_cost", {{"families", {"gcn5"}}, {"in_search", true}}}};
+  auto c = parseRunConfig(j, ".");
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_EQ(c->objectives.measured_cost.families, std::vector<GpuFamily>{GpuFamily::Gcn5});
+  EXPECT_TRUE(c->objectives.measured_cost.in_search);
+  // The resolved config records it, and reads back the same.
+  auto again = parseRunConfig(toJson(*c), ".");
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(again->objectives.measured_cost.families, c->objectives.measured_cost.families);
+  j["objectives"]["measured_cost"]["families"] = {"rdna9"};
+  EXPECT_NE(errorOf(j).find("/objectives/measured_cost/families/0: 'rdna9' is not one of"),
+            std::string::npos)
+      << errorOf(j);
+  j["objectives"]["measured_cost"] = {{"families", {"rdna2", "rdna2"}}};
+  EXPECT_NE(errorOf(j).find("listed twice"), std::string::npos) << errorOf(j);
+  j["objectives"]["measured_cost"] = {{"families", json::array()}, {"in_search", true}};
+  EXPECT_NE(errorOf(j).find("/objectives/measured_cost/in_search"), std::string::npos)
+      << errorOf(j);
+  j["objectives"]["measured_cost"] = {{"familes", {"rdna2"}}};
+  EXPECT_NE(errorOf(j).find("/objectives/measured_cost/familes: unknown key"), std::string::npos)
+      << errorOf(j);
 }
 
 class TableFiles : public ::testing::Test {

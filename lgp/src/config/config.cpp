@@ -223,6 +223,28 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
   o.enumeration("cost_model", c.cost_model, costTargetFromString, targets);
   c.cost_overrides = opNumberMap(o, "cost_overrides");
   c.discontinuity_weights = opNumberMap(o, "discontinuity_weights");
+  if (o.has("measured_cost")) {
+    Obj m(o.at("measured_cost"), o.path("measured_cost"));
+    std::vector<std::string> fams;
+    m.strings("families", fams);
+    if (m.has("families")) {
+      c.measured_cost.families.clear();
+      std::string choices;
+      for (auto n : kGpuFamilyNames) choices += (choices.empty() ? "" : ", ") + std::string(n);
+      for (size_t i = 0; i < fams.size(); ++i) {
+        auto f = gpuFamilyFromString(fams[i]);
+        if (!f) fail(jsonPath(m.path("families"), i), "'" + fams[i] + "' is not one of " + choices);
+        if (std::find(c.measured_cost.families.begin(), c.measured_cost.families.end(), *f) !=
+            c.measured_cost.families.end())
+          fail(jsonPath(m.path("families"), i), "'" + fams[i] + "' is listed twice");
+        c.measured_cost.families.push_back(*f);
+      }
+    }
+    m.boolean("in_search", c.measured_cost.in_search);
+    if (c.measured_cost.in_search && c.measured_cost.families.empty())
+      fail(m.path("in_search"), "needs at least one family in families");
+    m.finish();
+  }
   if (o.has("channels")) {
     const auto& v = o.at("channels");
     if (!v.is_array())
@@ -584,7 +606,16 @@ nlohmann::json toJson(const RunConfig& c) {
             {"cost_model", std::string(toString(c.objectives.cost_model))},
             {"cost_overrides", opMap(c.objectives.cost_overrides)},
             {"channels", channels},
-            {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)}}},
+            {"discontinuity_weights", opMap(c.objectives.discontinuity_weights)},
+            {"measured_cost",
+             {{"families",
+               [&] {
+                 nlohmann::json a = nlohmann::json::array();
+                 for (GpuFamily f : c.objectives.measured_cost.families)
+                   a.push_back(std::string(toString(f)));
+                 return a;
+               }()},
+              {"in_search", c.objectives.measured_cost.in_search}}}}},
           {"search",
            {{"population", s.population},
             {"generations", s.generations},

@@ -105,7 +105,12 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"restarts", p.restarts},
             {"ranks", p.ranks},
             {"remote_migrants", p.remote_migrants}}},
-          {"cost_model", std::string(toString(cfg.objectives.cost_model))},
+          // With measured cost in the search, members' "cost" is measured instructions.
+          {"cost_model", cfg.objectives.measured_cost.in_search &&
+                                 !cfg.objectives.measured_cost.families.empty()
+                             ? "measured:" + std::string(toString(
+                                                 cfg.objectives.measured_cost.families.front()))
+                             : std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
           {"error_channels", channelNames(err_cfg, t.output_names)},
           {"members", members},
@@ -259,12 +264,17 @@ Expected<Program> memberProgram(const nlohmann::json& front, size_t index) {
   if (index >= front.at("members").size())
     return Status::error("member " + std::to_string(index) + " does not exist (front has " +
                          std::to_string(front.at("members").size()) + " members)");
+  return frontEntryProgram(front, front.at("members")[index]);
+}
+
+Expected<Program> frontEntryProgram(const nlohmann::json& front, const nlohmann::json& entry) {
+  if (!entry.is_object() || !entry.contains("program")) return Status::error("program: missing");
   ProgramShape shape;
   shape.num_inputs = static_cast<int>(front.at("table").at("inputs").size());
   shape.num_outputs = static_cast<int>(front.at("table").at("outputs").size());
   shape.max_length = 255;
   shape.output_mode = OutputMode::Designated;
-  const auto& pj = front.at("members")[index].at("program");
+  const auto& pj = entry.at("program");
   shape.num_constants = pj.contains("constants") ? static_cast<int>(pj["constants"].size()) : 0;
   return programFromJson(pj, shape);
 }
@@ -308,12 +318,42 @@ Expected<std::string> memberFormula(const nlohmann::json& front, size_t index) {
   return f->text();
 }
 
+std::vector<std::string> measuredFamilies(const nlohmann::json& front) {
+  std::vector<std::string> out;
+  if (!front.contains("cost_measured_info") || !front["cost_measured_info"].is_object()) return out;
+  const auto& info = front["cost_measured_info"];
+  if (info.contains("families") && info["families"].is_array())
+    for (const auto& f : info["families"])
+      if (f.is_string()) out.push_back(f.get<std::string>());
+  return out;
+}
+
 std::string formatFrontTable(const nlohmann::json& front, const FrontTableOptions& opt) {
   std::ostringstream os;
   const size_t k = front.at("table").at("outputs").size();
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s %6s  %s\n", "#", "cost", "disc",
-                "error", "rmse", "max_abs", "lost", "expression");
+  // Measured instructions (emit/gpu_cost.hpp), one figure per measured family: "14/15/14".
+  const std::vector<std::string> fams = measuredFamilies(front);
+  std::string isa_head;
+  for (const auto& f : fams) isa_head += (isa_head.empty() ? "" : "/") + f;
+  const int isa_w = fams.empty() ? 0 : std::max<int>(8, static_cast<int>(isa_head.size()));
+  auto isaCell = [&](const nlohmann::json& m) {
+    std::string s;
+    for (const auto& f : fams) {
+      const auto* c = m.contains("cost_measured") && m["cost_measured"].is_object() &&
+                              m["cost_measured"].contains(f)
+                          ? &m["cost_measured"][f]
+                          : nullptr;
+      char b[32] = "-";
+      if (c && c->is_object() && c->contains("instructions") && (*c)["instructions"].is_number())
+        std::snprintf(b, sizeof b, "%.0f", (*c)["instructions"].get<double>());
+      s += (s.empty() ? "" : "/") + std::string(b);
+    }
+    return s;
+  };
+  std::snprintf(buf, sizeof(buf), "%4s %8s %*s%s%5s %12s %12s %12s %6s  %s\n", "#", "cost", isa_w,
+                isa_head.c_str(), isa_w ? " " : "", "disc", "error", "rmse", "max_abs", "lost",
+                "expression");
   os << buf;
   const auto& members = front.at("members");
   for (size_t i = 0; i < members.size(); ++i) {
@@ -344,12 +384,13 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
         std::snprintf(mx, sizeof mx, "%.6g", getNum(f, "max_abs"));
       }
       if (first)
-        std::snprintf(buf, sizeof(buf), "%4zu %8.4g %5.3g %12.6g %12s %12s %6s  ",
-                      m.at("index").get<size_t>(), getNum(m, "cost"), getNum(m, "discontinuity"),
-                      getNum(m, "error"), rm, mx, lost.c_str());
+        std::snprintf(buf, sizeof(buf), "%4zu %8.4g %*s%s%5.3g %12.6g %12s %12s %6s  ",
+                      m.at("index").get<size_t>(), getNum(m, "cost"), isa_w, isaCell(m).c_str(),
+                      isa_w ? " " : "", getNum(m, "discontinuity"), getNum(m, "error"), rm, mx,
+                      lost.c_str());
       else
-        std::snprintf(buf, sizeof(buf), "%4s %8s %5s %12s %12s %12s %6s  ", "", "", "", "", rm, mx,
-                      "");
+        std::snprintf(buf, sizeof(buf), "%4s %8s %*s%s%5s %12s %12s %12s %6s  ", "", "", isa_w, "",
+                      isa_w ? " " : "", "", "", rm, mx, "");
       return std::string(buf);
     };
     if (k == 1) {
@@ -425,9 +466,10 @@ Expected<nlohmann::json> snapFrontMember(const nlohmann::json& front, size_t ind
       *prog, [&](const Program& p) { return s.error(p); }, so);
   FrontEntry e;
   e.program = r.program;
-  const CostModel cost = cfg.costModel();
-  DiscontinuityModel disc = cfg.discontinuityModel();
   const auto domain = tableDomain(t);
+  CostModel cost = cfg.costModel();
+  cost.domain = domain;
+  DiscontinuityModel disc = cfg.discontinuityModel();
   disc.domain = domain;
   e.obj.error = r.error_after;
   e.obj.cost = cost.programCost(e.program) + cost.transformCost(ec.transforms);
@@ -438,10 +480,7 @@ Expected<nlohmann::json> snapFrontMember(const nlohmann::json& front, size_t ind
     e.channel_metrics = s.channelMetrics(e.program);
     e.channel_metrics_ref = referenceChannelMetrics(e.program, t, ec);
   }
-  for (int c = 0; c < kNumCostTargets; ++c) {
-    const CostModel m = CostModel::preset(static_cast<CostTarget>(c));
-    e.cost_by_target[c] = m.programCost(e.program) + m.transformCost(ec.transforms);
-  }
+  e.cost_by_target = costByTarget(e.program, domain, ec.transforms);
   const Dag d = formulaDag(e.program, static_cast<int>(ins.size()), domain);
   e.infix = printOutputs(d, ins);
   e.formula = printFormula(d, ins, outs).text();

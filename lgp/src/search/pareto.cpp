@@ -146,19 +146,25 @@ bool boxDominates(long long ae, long long ac, long long ad, long long be, long l
 }
 }  // namespace
 
-bool Archive::insert(const Program& p, const Objectives& o, bool refined) {
-  if (!o.finite() || !std::isfinite(o.cost) || !std::isfinite(o.discontinuity)) return false;
+bool Archive::rejects(const Objectives& o) const {
+  if (!o.finite() || !std::isfinite(o.cost) || !std::isfinite(o.discontinuity)) return true;
   const Box b = box(o);
   for (const auto& m : members_) {
     const Box mb = box(m.obj);
-    if (boxDominates(mb.e, mb.c, mb.d, b.e, b.c, b.d)) return false;
+    if (boxDominates(mb.e, mb.c, mb.d, b.e, b.c, b.d)) return true;
     if (mb.e == b.e && mb.c == b.c && mb.d == b.d) {
       // Same box: keep the dominating one, else the one with lower error (then lower cost).
       if (dominates(m.obj, o) ||
           !(o.error < m.obj.error || (o.error == m.obj.error && o.cost < m.obj.cost)))
-        return false;
+        return true;
     }
   }
+  return false;
+}
+
+bool Archive::insert(const Program& p, const Objectives& o, bool refined) {
+  if (rejects(o)) return false;
+  const Box b = box(o);
   std::vector<ArchiveMember> kept;
   kept.reserve(members_.size() + 1);
   for (auto& m : members_) {

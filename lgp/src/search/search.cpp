@@ -65,6 +65,7 @@ Search::Search(RunConfig cfg, Table table)
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
+  cost_.domain = domain_;  // and guards that interval analysis removes cost nothing
   threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
   scorers_.resize(threads_);
   fitters_.resize(threads_);
@@ -95,8 +96,10 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   o.error = s.error(p);
   if (!std::isfinite(o.error)) o.error = kInf;
   const auto& effective = s.bound().effective;  // bound by error(p): computed once
-  o.cost = cost_.programCost(p, effective) + transform_cost_;
-  if (err_cfg_.linear_scaling) o.cost += scalingCost(cost_, s.scales());
+  // The program as exported: with linear scaling, its mad and constants are costed too.
+  o.cost = (err_cfg_.linear_scaling ? cost_.programCost(applyLinearScaling(p, s.scales()))
+                                    : cost_.programCost(p)) +
+           transform_cost_;
   o.discontinuity = disc_.programDiscontinuity(p, effective);
   return o;
 }
@@ -413,7 +416,7 @@ void Search::initialize() {
     first += size;
   }
   evaluateAll(inds, {}, 0, base);
-  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj);
+  for (const auto& ind : inds) archiveInsert(ind.program, ind.obj, false);
   first = 0;
   for (int k = 0; k < count; ++k) {
     const int size = islandSize(island_first_ + k);
@@ -489,7 +492,7 @@ void Search::step(bool check_budget) {
     if (i >= base) refine[i - base] = chosen;
   }
   evaluateAll(off, refine, static_cast<uint64_t>(g), static_cast<uint64_t>(base));
-  for (const auto& ind : off) archive_.insert(ind.program, ind.obj, ind.refined);
+  for (const auto& ind : off) archiveInsert(ind.program, ind.obj, ind.refined);
 
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) {
@@ -542,7 +545,7 @@ void Search::refineArchive() {
               hashSeed(cfg_.search.seed, stream, static_cast<uint64_t>(i), 4), evals, true);
   evaluations_ += evals;
   session_evals_ += evals;
-  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
+  for (const auto& ind : inds) archiveInsert(ind.program, ind.obj, true);
   // Refined members also rejoin the islands (dealt in turn) so their constants propagate.
   const int count = static_cast<int>(islands_.size());
   std::vector<std::vector<Individual>> pools(count);
@@ -558,7 +561,7 @@ void Search::adopt(const std::vector<Program>& programs, int generations, uint64
   for (size_t i = 0; i < programs.size(); ++i) inds[i].program = programs[i];
   evaluateAll(inds, {}, 0);
   archive_ = Archive(cfg_.search.archive);
-  for (const auto& ind : inds) archive_.insert(ind.program, ind.obj, true);
+  for (const auto& ind : inds) archiveInsert(ind.program, ind.obj, true);
   islands_.assign(1, Island{});
   island_first_ = 0;
   island_total_ = 1;
@@ -607,6 +610,33 @@ void Search::run(const std::function<void(const SearchProgress&)>& on_progress) 
   if (on_progress) on_progress(progress());
 }
 
+void Search::setCostMeasure(CostMeasure measure, CostModel predictor, double slack) {
+  measure_ = std::move(measure);
+  measure_predictor_ = std::move(predictor);
+  measure_predictor_.domain = domain_;
+  measure_slack_ = slack;
+}
+
+void Search::archiveInsert(const Program& p, const Objectives& o, bool refined) {
+  if (!measure_ || !o.finite()) {
+    archive_.insert(p, o, refined);
+    return;
+  }
+  Scorer& s = scorer(0);
+  const Program fp = finalProgram(s, p);
+  Objectives m = o;
+  m.cost =
+      std::max(0.0, measure_predictor_.programCost(fp) +
+                        measure_predictor_.transformCost(err_cfg_.transforms) - measure_slack_);
+  if (archive_.rejects(m)) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto c = measure_(fp);
+  measure_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ++measurements_;
+  m.cost = c ? *c : o.cost;
+  archive_.insert(p, m, refined);
+}
+
 SearchProgress Search::progress() const {
   SearchProgress p;
   p.generation = generation_;
@@ -623,6 +653,8 @@ SearchProgress Search::progress() const {
   p.restarts = restarts_;
   p.ranks = ranks_;
   p.threads = threads_;
+  p.cost_measurements = measurements_;
+  p.cost_measure_s = measure_s_;
   return p;
 }
 
@@ -683,6 +715,12 @@ std::vector<FrontEntry> Search::front() const {
       twins[i] = snappedTwin(s, members[i].program);
       if (twins[i]) objs[i] = score(s, *twins[i]);
     }
+    if (measure_) {  // twins compete in measured cost, as the members do
+      Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
+      for (int i = 0; i < n; ++i)
+        if (twins[i] && objs[i].finite())
+          if (const auto c = measure_(finalProgram(s, *twins[i]))) objs[i].cost = *c;
+    }
     // A twin that is no worse in cost and discontinuity and whose error differs from its
     // original's by float32 rounding alone (an exact formula scores a few ulp off a
     // noise-fitted one) replaces it; every other twin is offered to the archive.
@@ -703,9 +741,6 @@ std::vector<FrontEntry> Search::front() const {
     members = a.sorted();
   }
   std::vector<FrontEntry> out(members.size());
-  std::array<CostModel, kNumCostTargets> models;
-  for (int t = 0; t < kNumCostTargets; ++t)
-    models[t] = CostModel::preset(static_cast<CostTarget>(t));
   const int n = static_cast<int>(members.size());
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
   for (int i = 0; i < n; ++i) {
@@ -719,9 +754,7 @@ std::vector<FrontEntry> Search::front() const {
       e.channel_metrics = s.channelMetrics(e.program);
       e.channel_metrics_ref = referenceChannelMetrics(e.program, table_, err_cfg_);
     }
-    for (int t = 0; t < kNumCostTargets; ++t)
-      e.cost_by_target[t] =
-          models[t].programCost(e.program) + models[t].transformCost(err_cfg_.transforms);
+    e.cost_by_target = costByTarget(e.program, domain_, err_cfg_.transforms);
     const Dag d = formulaDag(e.program, shape_.num_inputs, domain_);
     e.infix = printOutputs(d, table_.input_names);
     e.formula = printFormula(d, table_.input_names, table_.output_names).text();

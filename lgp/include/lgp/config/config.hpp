@@ -62,6 +62,17 @@ struct ChannelConfig {
   std::map<std::string, double> weights;  // output name -> weight; missing outputs weigh 0
 };
 
+// Measured GPU cost (emit/gpu_cost.hpp): emitted code compiled to AMD ISA on RADV's null device.
+struct MeasuredCostConfig {
+  // Families measured for every final front member and reference ("cost_measured"); empty =
+  // none. Where the backend is missing the front says why and the run goes on.
+  std::vector<GpuFamily> families = allGpuFamilies();
+  // Archive members are measured (the first family's instructions, cached) as they enter the
+  // archive, which then keeps only members non-dominated in measured cost; the populations
+  // still select on the model. Needs the backend: a run without it fails at the start.
+  bool in_search = false;
+};
+
 struct ObjectiveConfig {
   ErrorMetric metric = ErrorMetric::Rmse;       // the error objective
   OutputCombine combine = OutputCombine::Mean;  // across outputs (or channels)
@@ -70,6 +81,7 @@ struct ObjectiveConfig {
   CostTarget cost_model = CostTarget::GpuGeneric;
   std::map<Op, double> cost_overrides;         // per-operator cost replacing the model's
   std::map<Op, double> discontinuity_weights;  // per-operator weight replacing the default
+  MeasuredCostConfig measured_cost;
 };
 
 struct VariationConfig {

@@ -61,6 +61,8 @@ nlohmann::json progressToJson(const SearchProgress& p);
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path);
 // A member's program, decoded against the shape recorded in the front.
 Expected<Program> memberProgram(const nlohmann::json& front, size_t index);
+// The same for any entry with a "program" (a member, or a scored reference of "references").
+Expected<Program> frontEntryProgram(const nlohmann::json& front, const nlohmann::json& entry);
 // The table's domain recorded in a front (/table/domain), one interval per /table/inputs
 // entry (the whole line where none is recorded).
 std::vector<Interval> frontDomain(const nlohmann::json& front);
@@ -70,11 +72,16 @@ std::vector<Interval> frontDomain(const nlohmann::json& front);
 Expected<Formula> memberFormulaStatements(const nlohmann::json& front, size_t index);
 Expected<std::string> memberFormula(const nlohmann::json& front, size_t index);
 
+// The GPU families whose measured cost the front records (/cost_measured_info/families; set by
+// emit's addMeasuredCost), in order; empty when none was measured.
+std::vector<std::string> measuredFamilies(const nlohmann::json& front);
+
 struct FrontTableOptions {
   // Flag threshold for the bits-lost column; unset: the member's own "flagged".
   std::optional<double> cancel_bits;
 };
-// Plain-text table of a front (for `lgp front`): per member its cost, discontinuity, error,
+// Plain-text table of a front (for `lgp front`): per member its cost, the measured
+// instructions per family where the front has them (e.g. "14/15/14"), discontinuity, error,
 // the float32 rmse and max_abs per output, the bits lost to cancellation ("!" = flagged) and
 // the formula, one statement per line for several outputs.
 std::string formatFrontTable(const nlohmann::json& front, const FrontTableOptions& o = {});

@@ -51,6 +51,8 @@ class Archive {
   explicit Archive(ArchiveConfig cfg = {});
   // Returns true if the candidate entered the archive.
   bool insert(const Program& p, const Objectives& o, bool refined = false);
+  // Whether insert would turn a candidate with these objectives away.
+  bool rejects(const Objectives& o) const;
   const std::vector<ArchiveMember>& members() const { return members_; }
   std::vector<ArchiveMember>& mutableMembers() { return members_; }
   void clear() { members_.clear(); }

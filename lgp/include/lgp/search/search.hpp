@@ -69,6 +69,10 @@ struct SearchProgress {
   int ranks = 1;                 // MPI ranks the islands are spread over (1 = one process)
   int threads = 1;               // OpenMP threads (per rank)
   uint64_t remote_migrants = 0;  // of `migrants`, those sent to an island on another rank
+  // Measured cost in the archive (Search::setCostMeasure): candidates measured, and the wall
+  // time the measurements took.
+  uint64_t cost_measurements = 0;
+  double cost_measure_s = 0;
 };
 
 // Fills front_size, best_error and best_at_cost of `p` from archive members (levels empty =
@@ -112,6 +116,17 @@ class Search {
   // The stop reason progress() reports from now on; the search is done (used for the
   // assembled result of a distributed run).
   void setStopReason(const std::string& reason) { adopted_stop_ = reason; }
+
+  // Measured cost in the archive (objectives.measured_cost.in_search; the frontends own the
+  // GPU backend and pass emit/gpu_cost.hpp's measurement here). `measure` returns the measured
+  // cost of a member's final program (introns pruned, linear scaling applied), or nullopt
+  // where it failed (the model's cost is kept then). Archive members carry the measured cost,
+  // so the front is non-dominated in it; islands keep selecting on the model. A candidate is
+  // measured only if the archive would take it at its `predictor` cost minus `slack` (the
+  // predictor's worst error), so the many offspring the archive rejects on error anyway are
+  // never compiled. Measurements are not checkpointed: a resume measures again (cached).
+  using CostMeasure = std::function<std::optional<double>(const Program&)>;
+  void setCostMeasure(CostMeasure measure, CostModel predictor, double slack);
 
   // Programs to start from (e.g. parsed published formulas), before initialize(): each is
   // fitted to the run's shape (fitToShape) and replaces one random initial program. Programs
@@ -203,6 +218,8 @@ class Search {
   int offspringBase() const;    // global index of this search's first offspring
   void migrate(int generation);
   void refineArchive();
+  // archive_.insert, with the measured cost where setCostMeasure was called.
+  void archiveInsert(const Program& p, const Objectives& o, bool refined);
   double elapsed() const;
   std::string stopReason() const;
   std::string configDigest() const;
@@ -245,6 +262,11 @@ class Search {
   std::vector<Interval> domain_;  // the table's (tableDomain)
   bool snap_twins_ = true;
   SnapOptions snap_;
+  CostMeasure measure_;
+  CostModel measure_predictor_;
+  double measure_slack_ = 0;
+  uint64_t measurements_ = 0;
+  double measure_s_ = 0;
   // The snapped and simplified twin of an archive program, if it differs and fits the shape.
   std::optional<Program> snappedTwin(Scorer& s, const Program& p) const;
 };
