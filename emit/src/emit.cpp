@@ -294,7 +294,7 @@ std::string vectorType(const Ctx& c, size_t k) {
     case Language::Hlsl:
       return detail::scalarType(c) + std::to_string(k);
     case Language::Glsl:
-      return "vec" + std::to_string(k);
+      return (c.prec == Precision::Half ? "f16vec" : "vec") + std::to_string(k);
     case Language::Cpp:
       return "";
   }
@@ -333,9 +333,8 @@ Status EmitOptions::validate(Language lang) const {
       function_name.rfind("lgp_vm_", 0) == 0)
     return Status::error("function name: '" + function_name +
                          "' is not a usable identifier (letters, digits, _; not a keyword)");
-  if (precision == Precision::Half && lang != Language::Hlsl)
-    return Status::error("precision: half is only available for HLSL (got " +
-                         std::string(toString(lang)) + ")");
+  if (precision == Precision::Half && lang == Language::Cpp)
+    return Status::error("precision: half is only available for HLSL and GLSL (got cpp)");
   if (precision == Precision::Double && lang != Language::Cpp)
     return Status::error("precision: double is only available for C++ (got " +
                          std::string(toString(lang)) + ")");
@@ -409,8 +408,8 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
 
   // Costs and piecewise count of what is emitted.
   for (int t = 0; t < kNumCostTargets; ++t) {
-    const CostModel cm = CostModel::preset(static_cast<CostTarget>(t));
-    out.cost[t] = dagCost(d, cm.cost) + cm.transformCost(tr);
+    const CostModel cm = CostModel::preset(static_cast<CostTarget>(t), in.domain);
+    out.cost[t] = cm.dagCost(d) + cm.transformCost(tr);
   }
   out.piecewise = countPiecewise(d);
   for (int h = 0; h < static_cast<int>(Helper::Count); ++h)
@@ -422,30 +421,32 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
   const bool cpp = lang == Language::Cpp;
   const bool use_struct = k > 1 && (cpp || k > 4);
   const std::string struct_name = opts.function_name + "_result";
-  std::string ret_type = T, ret;
-  if (k == 1) {
-    ret = "  return " + stripOuterParens(results[0]) + ";\n";
-  } else if (!use_struct) {
-    ret_type = vectorType(ctx, k);
-    ret = "  return " + ret_type + "(";
-    for (size_t j = 0; j < k; ++j) ret += (j ? ", " : "") + stripOuterParens(results[j]);
-    ret += ");\n";
-  } else {
-    ret_type = struct_name;
+  const std::string ret_type = k == 1 ? T : (use_struct ? struct_name : vectorType(ctx, k));
+  // The return statement for one value per output.
+  auto returnOf = [&](const std::vector<std::string>& values) -> std::string {
     std::string list;
-    for (size_t j = 0; j < k; ++j) list += (j ? ", " : "") + stripOuterParens(results[j]);
+    for (size_t j = 0; j < values.size(); ++j)
+      list += (j ? ", " : "") + stripOuterParens(values[j]);
+    if (k == 1) return "  return " + list + ";\n";
+    if (!use_struct) return "  return " + ret_type + "(" + list + ");\n";
     switch (lang) {
       case Language::Cpp:
-        ret = "  return " + struct_name + "{" + list + "};\n";
-        break;
+        return "  return " + struct_name + "{" + list + "};\n";
       case Language::Glsl:
-        ret = "  return " + struct_name + "(" + list + ");\n";
-        break;
+        return "  return " + struct_name + "(" + list + ");\n";
       case Language::Hlsl:
-        ret = "  " + struct_name + " lgp_r = {" + list + "};\n  return lgp_r;\n";
-        break;
+        return "  " + struct_name + " lgp_r = {" + list + "};\n  return lgp_r;\n";
     }
-  }
+    return "";
+  };
+  const std::string ret = returnOf(results);
+  out.function_name = opts.function_name;
+  out.num_inputs = ni;
+  out.return_type = ret_type;
+  for (size_t j = 0; j < k; ++j)
+    out.output_access.push_back(k == 1       ? ""
+                                : use_struct ? "." + onames[j]
+                                             : "." + std::string(1, "xyzw"[j]));
   std::vector<uint8_t> used(ni, 0);
   for (const Node& n : d.nodes)
     if (n.kind == Node::Kind::Var) used[n.index] = 1;
@@ -547,20 +548,34 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
                                        return s;
                                      }() +
                                      " (proven never to reach the protection on the domain)");
+    for (const auto& l : opts.header_lines) line(l);
+    if (lang == Language::Glsl && opts.precision == Precision::Half)
+      line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
     if (cpp && opts.exact_math)
       line(
           "Exact math: bit-identical to the lgp float32 interpreter (compile with "
           "-ffp-contract=off)");
   }
 
-  std::string fn = hdr;
+  std::string struct_def;
   if (use_struct) {
-    std::string s = "struct " + struct_name + " {";
-    for (size_t j = 0; j < k; ++j) s += " " + T + " " + onames[j] + ";";
-    fn += s + " };\n";
+    struct_def = "struct " + struct_name + " {";
+    for (size_t j = 0; j < k; ++j) struct_def += " " + T + " " + onames[j] + ";";
+    struct_def += " };\n";
   }
+  std::string fn = hdr + struct_def;
   fn += sig + " {\n" + r.body() + ret + "}\n";
   out.function = fn;
+  {
+    // The I/O-only twin: the same signature returning the inputs the formula reads.
+    std::vector<std::string> src, values;
+    for (int i = 0; i < ni; ++i)
+      if (used[i]) src.push_back(params[i]);
+    if (src.empty()) src.push_back(detail::literal(0.0, ctx));
+    for (size_t j = 0; j < k; ++j) values.push_back(src[j % src.size()]);
+    out.io_baseline =
+        (use_struct ? struct_def : std::string()) + sig + " {\n" + returnOf(values) + "}\n";
+  }
 
   std::string code;
   if (cpp && opts.includes) {
@@ -577,6 +592,16 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
   return out;
 }
 
+EmitInput emitInputForTable(const Program& p, const Table& t) {
+  EmitInput in;
+  in.program = p;
+  in.input_names = t.input_names;
+  in.output_names = t.output_names;
+  in.domain = tableDomain(t);
+  in.table_desc = std::to_string(t.rows()) + " rows";
+  return in;
+}
+
 Expected<EmitInput> emitInputFromFront(const nlohmann::json& front, size_t member) {
   if (!front.is_object() || !front.contains("members") || !front["members"].is_array())
     return Status::error("front: /members is missing or not an array");
@@ -584,7 +609,12 @@ Expected<EmitInput> emitInputFromFront(const nlohmann::json& front, size_t membe
   if (member >= members.size())
     return Status::error("member: index " + std::to_string(member) + " out of range (front has " +
                          std::to_string(members.size()) + " members)");
-  if (!front.contains("table") || !front["table"].is_object())
+  return emitInputFromFrontEntry(front, members[member], "/members/" + std::to_string(member));
+}
+
+Expected<EmitInput> emitInputFromFrontEntry(const nlohmann::json& front, const nlohmann::json& m,
+                                            const std::string& mpath) {
+  if (!front.is_object() || !front.contains("table") || !front["table"].is_object())
     return Status::error("front: /table is missing");
   const auto& table = front["table"];
   EmitInput in;
@@ -600,11 +630,9 @@ Expected<EmitInput> emitInputFromFront(const nlohmann::json& front, size_t membe
   };
   if (Status s = names("inputs", in.input_names); !s) return s;
   if (Status s = names("outputs", in.output_names); !s) return s;
-  auto prog = memberProgram(front, member);
-  if (!prog) return prog.status();
+  auto prog = frontEntryProgram(front, m);
+  if (!prog) return Status::error("front: " + mpath + "/" + prog.error());
   in.program = *prog;
-  const std::string mpath = "/members/" + std::to_string(member);
-  const auto& m = members[member];
   if (table.contains("domain") && table["domain"].is_object()) {
     for (const auto& n : in.input_names) {
       Interval iv;

@@ -12,7 +12,11 @@
 
 namespace lgp::emit::detail {
 
-std::string scalarType(const Ctx& c) { return std::string(toString(c.prec)); }
+std::string scalarType(const Ctx& c) {
+  // GLSL has no `half`: binary16 arithmetic is float16_t (GL_EXT_shader_explicit_arithmetic_types).
+  if (c.lang == Language::Glsl && c.prec == Precision::Half) return "float16_t";
+  return std::string(toString(c.prec));
+}
 
 std::string literal(double v, const Ctx& c) {
   std::string s;
@@ -29,7 +33,7 @@ std::string literal(double v, const Ctx& c) {
   }
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
   if (c.lang == Language::Cpp && c.prec == Precision::Float) s += "f";
-  if (c.prec == Precision::Half) s += "h";
+  if (c.prec == Precision::Half) s += c.lang == Language::Glsl ? "hf" : "h";
   return s;
 }
 

@@ -29,15 +29,16 @@ Expected<nlohmann::json> scoreProgram(const Program& p, const Table& t, const Sc
   nlohmann::json j;
   const double err = combineError(scorer.channelMetrics(p), ec);
   j["error"] = std::isfinite(err) ? nlohmann::json(err) : nlohmann::json(nullptr);
-  j["cost"] = o.cost.programCost(p);
   const auto domain = tableDomain(t);
+  CostModel cost = o.cost;
+  if (cost.domain.empty()) cost.domain = domain;
+  j["cost"] = cost.programCost(p);
   DiscontinuityModel disc = o.discontinuity;
   if (disc.domain.empty()) disc.domain = domain;  // as the search counts it
   j["discontinuity"] = disc.programDiscontinuity(p);
   nlohmann::json cbt = nlohmann::json::object();
-  for (int k = 0; k < kNumCostTargets; ++k)
-    cbt[std::string(kCostTargetNames[k])] =
-        CostModel::preset(static_cast<CostTarget>(k)).programCost(p);
+  const auto costs = costByTarget(p, domain, {});
+  for (int k = 0; k < kNumCostTargets; ++k) cbt[std::string(kCostTargetNames[k])] = costs[k];
   j["cost_by_target"] = cbt;
   // The front's printer: the simplified DAG on the table's domain.
   const Dag fd = formulaDag(p, static_cast<int>(t.numInputs()), domain);

@@ -236,7 +236,7 @@ TEST(EmitGolden, HeaderStatesTableDomainMetricsCostAndPiecewise) {
 // Fitted on: dfg, 256 rows; domain x in [0, 1.5], y in [0.25, 2]
 // Returns y0
 // Error (search, float32): y0 rmse 0.001 max_abs 0.004
-// Cost: gpu-generic 1, nvidia 1, gcn 1, rdna 1, cpu 3
+// Cost: gpu-generic 1.5, nvidia 1, gcn 1.5, rdna 1.25, cpu 3
 // Piecewise ops: 2 (min, saturate)
 float g(float x, float y) {
   return saturate(min(x, y));
@@ -262,6 +262,10 @@ TEST(EmitGolden, BadOptionsAreErrorsNamingTheField) {
   EXPECT_NE(e.error().find("function name"), std::string::npos);
   o = EmitOptions{};
   o.precision = Precision::Half;
+  e = emitProgram(in, Language::Cpp, o);
+  ASSERT_FALSE(e.hasValue());
+  EXPECT_NE(e.error().find("precision"), std::string::npos);
+  o.precision = Precision::Double;
   e = emitProgram(in, Language::Glsl, o);
   ASSERT_FALSE(e.hasValue());
   EXPECT_NE(e.error().find("precision"), std::string::npos);

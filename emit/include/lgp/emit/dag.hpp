@@ -16,7 +16,6 @@ using lgp::applyOp;
 using lgp::buildDag;
 using lgp::countPiecewise;
 using lgp::Dag;
-using lgp::dagCost;
 using lgp::evaluateRow;
 using lgp::Interval;
 using lgp::isProtected;

@@ -33,8 +33,9 @@ std::optional<Language> languageFromString(std::string_view s);  // "hlsl", "gls
 
 struct EmitOptions {
   std::string function_name = "lgp_fit";  // a C identifier
-  // float everywhere; half: HLSL only (min-precision `half`, protection constants sized for
-  // binary16, error re-measured in half when `table` is set); double: C++ only.
+  // float everywhere; half: HLSL (`half`) and GLSL (`float16_t`, which needs
+  // GL_EXT_shader_explicit_arithmetic_types_float16), with protection constants sized for
+  // binary16 and the error re-measured in half when `table` is set; double: C++ only.
   Precision precision = Precision::Float;
   // Emit the raw operator instead of the protected helper wherever interval analysis on the
   // table's domain proves the protected branch is never taken (a comment lists them).
@@ -51,8 +52,9 @@ struct EmitOptions {
   bool header = true;    // the header comment (table, domain, metrics, costs, piecewise ops)
   bool helpers = true;   // the lgp_* helper definitions (false: defined elsewhere)
   bool includes = true;  // C++: the #include lines
-  const Table* table = nullptr;  // if set, the header's error is re-measured on it
-  std::string source;            // free text for the header, e.g. "front.json member 3"
+  std::vector<std::string> header_lines;  // extra header lines, e.g. the measured cost
+  const Table* table = nullptr;           // if set, the header's error is re-measured on it
+  std::string source;                     // free text for the header, e.g. "front.json member 3"
 
   Status validate(Language lang) const;
 };
@@ -80,13 +82,32 @@ struct Emitted {
   std::string formula;                         // printFormula of `dag` (the header's Formula:)
   std::array<double, kNumCostTargets> cost{};  // per target, inverse transforms included
   int piecewise = 0;
+  // How a caller reads the result: the function's name and return type, and per output the
+  // accessor to append to the returned value ("" for a scalar, ".x".. for a vector, ".A" for a
+  // struct field).
+  std::string function_name;
+  std::string return_type;
+  int num_inputs = 0;  // parameters, one per table input, in table order
+  std::vector<std::string> output_access;
+  // The function's I/O-only twin: the same name, signature and return type, returning the
+  // inputs the formula reads (cycled over the outputs; 0 when it reads none), without helpers
+  // or header. A shader built around it costs what the surrounding I/O costs, so subtracting
+  // its cost leaves the formula's own (gpu_cost.hpp).
+  std::string io_baseline;
 };
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts);
 
+// A program fitted on `t`: its input and output names and domain (no transforms, no metrics).
+EmitInput emitInputForTable(const Program& p, const Table& t);
+
 // Member `member` of a front.json ("lgp-front/1"): program, names, transforms, domain and
 // metrics are taken from the front. Errors name the bad field.
 Expected<EmitInput> emitInputFromFront(const nlohmann::json& front, size_t member);
+// The same for any entry of the front with a "program" (a member, or a scored reference);
+// `path` names it in errors (e.g. "/references/2").
+Expected<EmitInput> emitInputFromFrontEntry(const nlohmann::json& front,
+                                            const nlohmann::json& entry, const std::string& path);
 Expected<std::string> emitFromFront(const nlohmann::json& front, size_t member, Language lang,
                                     const EmitOptions& opts);
 
