@@ -1,4 +1,5 @@
 // `lgp emit front.json --lang hlsl|glsl|cpp`: export one front member as shader or C++ code.
+#include <cmath>
 #include <cstdio>
 #include <cxxopts.hpp>
 #include <fstream>
@@ -7,6 +8,8 @@
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/emit/emit.hpp"
+#include "lgp/emit/gpu_cost.hpp"
+#include "lgp/emit/vulkan_run.hpp"
 #include "lgp/io/result.hpp"
 #include "table_source.hpp"
 
@@ -15,6 +18,49 @@ namespace {
 int fail(const std::string& msg) {
   std::fprintf(stderr, "error: %s\n", msg.c_str());
   return 2;
+}
+
+std::string num(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3g", v);
+  return std::isfinite(v) ? b : "inf";
+}
+
+// `--verify vulkan`: every language and precision on lavapipe; the report goes to stderr so that
+// stdout stays the code.
+int verifyVulkan(const lgp::emit::EmitInput& in, const lgp::Table& t, size_t member, double bound) {
+  auto checks = lgp::emit::verifyOnVulkan(in, t);
+  if (!checks) return fail("--verify vulkan: " + checks.error());
+  const auto st = lgp::emit::vulkanRunStatus();
+  std::fprintf(stderr, "lgp emit: member %zu run on %s over %zu rows\n", member, st.detail.c_str(),
+               t.rows());
+  bool ok = true;
+  for (const auto& c : *checks) {
+    const std::string head =
+        std::string(lgp::emit::toString(c.lang)) + " " + std::string(lgp::toString(c.precision));
+    if (c.skipped) {
+      std::fprintf(stderr, "  %-11s skipped: %s\n", head.c_str(), c.why.c_str());
+      continue;
+    }
+    for (const auto& o : c.outputs) {
+      const bool pass = o.nonfinite == 0 && o.max_scaled_ulp <= bound;
+      ok = ok && pass;
+      std::fprintf(
+          stderr,
+          "  %-11s %-6s vs %s: max |diff| %s (%s ulp; %s ulp of max|y|)%s; vs truth rmse "
+          "%s max %s (lgp %s %s)%s\n",
+          head.c_str(), o.name.c_str(), c.reference.c_str(), num(o.max_abs_diff).c_str(),
+          num(o.max_ulp).c_str(), num(o.max_scaled_ulp).c_str(),
+          o.nonfinite ? (", " + std::to_string(o.nonfinite) + " rows not finite").c_str() : "",
+          num(o.driver.rmse).c_str(), num(o.driver.max_abs).c_str(), num(o.reference.rmse).c_str(),
+          num(o.reference.max_abs).c_str(), pass ? "" : "  OVER THE BOUND");
+    }
+  }
+  if (!ok) {
+    std::fprintf(stderr, "lgp emit: --verify vulkan: disagreement over %g ulp of max|y|\n", bound);
+    return 1;
+  }
+  return 0;
 }
 
 int emitMain(int argc, char** argv) {
@@ -32,7 +78,7 @@ int emitMain(int argc, char** argv) {
       "the run's cost model)",
       cxxopts::value<std::string>())("n,name", "function name",
                                      cxxopts::value<std::string>()->default_value("lgp_fit"))(
-      "p,precision", "float; half (HLSL); double (C++)",
+      "p,precision", "float; half (HLSL, GLSL); double (C++)",
       cxxopts::value<std::string>()->default_value("float"))(
       "fast", "raw operators where the protected branch is proven unreachable on the domain")(
       "no-pow-rewrites", "keep pow(x, 2) etc. as protected pow")(
@@ -50,6 +96,15 @@ int emitMain(int argc, char** argv) {
       "table", "table (CSV/JSON) to re-measure the error of the emitted code on, e.g. in half",
       cxxopts::value<std::string>())("no-header", "omit the header comment")(
       "no-helpers", "omit the lgp_* helper definitions")(
+      "verify",
+      "vulkan: run the member's GLSL and HLSL, in float and half, as compute shaders on "
+      "lavapipe over every row of the table (--table, else the run's) and compare with lgp; "
+      "exit 1 beyond --verify-ulp",
+      cxxopts::value<std::string>())(
+      "verify-ulp",
+      "bound for --verify: ulps of the output's largest |value| (float32; binary16 for GLSL half)",
+      cxxopts::value<double>()->default_value("16"))(
+      "no-measure", "omit the measured AMD instruction counts from the header (HLSL, GLSL)")(
       "o,out", "write to this file instead of stdout", cxxopts::value<std::string>())("h,help",
                                                                                       "this help");
   opts.parse_positional({"front"});
@@ -123,6 +178,18 @@ int emitMain(int argc, char** argv) {
   auto in = lgp::emit::emitInputFromFront(*front, *member);
   if (!in) return fail(path + ": " + in.error());
   std::optional<lgp::Table> table;
+  if (args.count("verify") && args["verify"].as<std::string>() != "vulkan")
+    return fail("--verify: the only driver is 'vulkan' (got '" + args["verify"].as<std::string>() +
+                "')");
+  if (args.count("verify") && !args.count("table")) {
+    // The run's own table, as --snap finds it.
+    auto cfg =
+        lgp::frontRunConfig(*front, path, args.count("data") ? args["data"].as<std::string>() : "");
+    if (!cfg) return fail(path + ": " + cfg.error() + " (or give --table)");
+    auto t = lgp::cli::loadRunTable(*cfg);
+    if (!t) return fail(t.error());
+    table = std::move(*t);
+  }
   if (args.count("table")) {
     const std::string tp = args["table"].as<std::string>();
     auto raw = lgp::readTableFile(tp);
@@ -135,6 +202,30 @@ int emitMain(int argc, char** argv) {
   eo.source = path + " member " + std::to_string(*member);
   auto e = lgp::emit::emitProgram(*in, *lang, eo);
   if (!e) return fail(e.error());
+  if (*lang != lgp::emit::Language::Cpp && eo.header && !args.count("no-measure")) {
+    // The code as emitted, compiled to AMD ISA: the header states what it costs.
+    std::string line = "Measured (ACO instructions / latency / VGPRs over an I/O-only shader):";
+    bool any = false;
+    for (int f = 0; f < lgp::kNumGpuFamilies; ++f) {
+      const auto fam = static_cast<lgp::GpuFamily>(f);
+      auto m = lgp::emit::measureEmitted(*e, *lang, eo.precision, fam);
+      if (!m) {
+        line = "Measured: not available (" + m.error() + ")";
+        any = true;
+        break;
+      }
+      char b[96];
+      std::snprintf(b, sizeof b, " %s %.0f/%.0f/%.0f", std::string(lgp::toString(fam)).c_str(),
+                    m->instructions, m->latency, m->vgprs);
+      line += b;
+      any = true;
+    }
+    if (any) {
+      eo.header_lines.push_back(line);
+      e = lgp::emit::emitProgram(*in, *lang, eo);
+      if (!e) return fail(e.error());
+    }
+  }
   if (args.count("out")) {
     const std::string out = args["out"].as<std::string>();
     std::ofstream f(out);
@@ -142,6 +233,8 @@ int emitMain(int argc, char** argv) {
   } else {
     std::cout << e->code;
   }
+  if (args.count("verify"))
+    return verifyVulkan(*in, *table, *member, args["verify-ulp"].as<double>());
   return 0;
 }
 

@@ -9,6 +9,9 @@
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
 #include "table_source.hpp"
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/gpu_cost.hpp"
+#endif
 #ifdef LGP_HAVE_DAEMON_CLIENT
 #include "daemon_client.hpp"
 #endif
@@ -34,7 +37,10 @@ int frontMain(int argc, char** argv) {
       "data", "the run's table for --snap (default: the config's data, found next to the front)",
       cxxopts::value<std::string>())(
       "cancel-bits", "flag members that lose more than this many float32 bits to cancellation",
-      cxxopts::value<double>())("h,help", "this help");
+      cxxopts::value<double>())(
+      "measure",
+      "compile every member and reference to AMD ISA (RDNA2, RDNA3, GCN5) and show the measured "
+      "instructions; with -o the front is saved with them")("h,help", "this help");
   opts.parse_positional({"front"});
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "front", "no front file given");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
@@ -89,6 +95,23 @@ int frontMain(int argc, char** argv) {
     if (args.count("out"))
       if (auto st = lgp::writeFrontJson(*front, args["out"].as<std::string>()); !st)
         return fail(st.message());
+  }
+  if (args.count("measure")) {
+#ifdef LGP_HAVE_EMIT
+    lgp::emit::addMeasuredCost(*front);
+    const auto& info = (*front)["cost_measured_info"];
+    if (info.contains("unavailable"))
+      std::fprintf(stderr, "warning: --measure: %s\n",
+                   info["unavailable"].get<std::string>().c_str());
+    if (args.count("out") && !args.count("daemon"))
+      if (auto st = lgp::writeFrontJson(*front, args["out"].as<std::string>()); !st) {
+        std::fprintf(stderr, "error: %s\n", st.message().c_str());
+        return 1;
+      }
+#else
+    std::fprintf(stderr, "error: --measure: this build has no emit library\n");
+    return 2;
+#endif
   }
   if (args.count("json")) {
     std::cout << (*front)["members"].dump(2) << "\n";

@@ -19,6 +19,7 @@
 #include "lgp/search/two_step.hpp"
 #include "table_source.hpp"
 #ifdef LGP_HAVE_EMIT
+#include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
 #endif
 
@@ -168,6 +169,8 @@ int runMain(int argc, char** argv) {
   }
   if (two_step && !seeds.empty())
     return fail("/search/seed_references: not available with two_step", 2);
+  if (cfg->objectives.measured_cost.in_search && (two_step || distributed))
+    return fail("/objectives/measured_cost/in_search: runs in one process with one step only", 2);
   std::unique_ptr<lgp::Search> single;
   std::unique_ptr<lgp::TwoStepSearch> stepped;
   if (two_step) {
@@ -185,6 +188,12 @@ int runMain(int argc, char** argv) {
     if (resume)
       if (auto st = single->restore(*ck); !st)
         return fail(cfg->output.checkpoint + ": " + st.message(), 2);
+#ifdef LGP_HAVE_EMIT
+    if (auto st = lgp::emit::enableMeasuredCostInSearch(*single); !st) return fail(st.message(), 2);
+#else
+    if (cfg->objectives.measured_cost.in_search)
+      return fail("/objectives/measured_cost/in_search: this build has no emit library", 2);
+#endif
     // A reference that does not fit the program shape is reported, not fatal.
     for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
@@ -306,6 +315,21 @@ int runMain(int argc, char** argv) {
 #ifdef LGP_HAVE_EMIT
   if (!cfg->references.empty())
     j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
+  if (!cfg->objectives.measured_cost.families.empty()) {
+    // Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp); a machine without
+    // the backend still gets its front, with the reason recorded.
+    lgp::emit::MeasureOptions mo;
+    mo.families = cfg->objectives.measured_cost.families;
+    const auto t0 = Clock::now();
+    lgp::emit::addMeasuredCost(j, mo);
+    const auto& info = j["cost_measured_info"];
+    if (!quiet && info.contains("unavailable"))
+      std::fprintf(stderr, "lgp: no measured GPU cost: %s\n",
+                   info["unavailable"].get<std::string>().c_str());
+    else if (!quiet)
+      std::fprintf(stderr, "lgp: measured GPU cost of %zu members on %s in %.1f s\n", front.size(),
+                   info["families"].dump().c_str(), since(t0));
+  }
 #endif
   if (auto st = lgp::writeFrontJson(j, cfg->output.front_json); !st) {
     std::fprintf(stderr, "error: %s\n", st.message().c_str());
@@ -323,6 +347,12 @@ int runMain(int argc, char** argv) {
         "lgp: stopped (%s) after %d generations, %llu evaluations, %.1f s; %zu members -> %s\n",
         p.stop_reason.c_str(), p.generation, static_cast<unsigned long long>(p.evaluations),
         p.elapsed_s, front.size(), cfg->output.front_json.c_str());
+  if (!quiet && p.cost_measurements > 0)
+    std::fprintf(stderr,
+                 "lgp: measured cost in the archive: %llu candidates compiled in %.1f s (%.0f %% "
+                 "of the run)\n",
+                 static_cast<unsigned long long>(p.cost_measurements), p.cost_measure_s,
+                 p.elapsed_s > 0 ? 100 * p.cost_measure_s / p.elapsed_s : 0.0);
   return g_interrupts.load() > 0 ? 130 : 0;
 }
 

@@ -10,6 +10,8 @@
 
 #include "cli_args.hpp"
 #include "commands.hpp"
+#include "lgp/core/program.hpp"
+#include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
 
 namespace {
@@ -84,6 +86,7 @@ int scoreMain(int argc, char** argv) {
       cxxopts::value<std::string>()->default_value("mean"))(
       "cost-model", "gpu-generic, nvidia, gcn, rdna, cpu",
       cxxopts::value<std::string>()->default_value("gpu-generic"))(
+      "no-measure", "skip the measured GPU cost (compiling the formula to AMD ISA)")(
       "json", "print the result as JSON (the fields of a front member)")("h,help", "this help");
   opts.parse_positional({"table"});
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "table",
@@ -130,7 +133,25 @@ int scoreMain(int argc, char** argv) {
 
   auto r = lgp::emit::scoreFormula(args["name"].as<std::string>(), texts, aliases, *table, so);
   if (!r) return fail(r.error());
-  const auto& j = *r;
+  auto& j = *r;
+  std::string measured_note;
+  if (!args.count("no-measure")) {
+    // The formula as `lgp emit --lang hlsl --fast` writes it, compiled for every AMD family.
+    lgp::ProgramShape shape;
+    shape.num_inputs = static_cast<int>(table->numInputs());
+    shape.num_outputs = static_cast<int>(table->numOutputs());
+    shape.max_length = 255;
+    shape.num_constants = 255;
+    shape.output_mode = lgp::OutputMode::Designated;
+    auto p = lgp::programFromJson(j["program"], shape);
+    if (!p) return fail("internal: " + p.error());
+    const lgp::emit::MeasureOptions mo;
+    auto m = lgp::emit::measureProgram(lgp::emit::emitInputForTable(*p, *table), mo);
+    if (m)
+      j["cost_measured"] = *m;
+    else
+      measured_note = "measured cost: not available (" + m.error() + ")";
+  }
   if (args.count("json")) {
     std::cout << j.dump(2) << "\n";
     return 0;
@@ -173,7 +194,17 @@ int scoreMain(int argc, char** argv) {
               num(j["cost"].get<double>()).c_str());
   for (const auto& [k, v] : j["cost_by_target"].items())
     std::printf(" %s %s", k.c_str(), num(v.get<double>()).c_str());
-  std::printf("\ndiscontinuity: %s\n", num(j["discontinuity"].get<double>()).c_str());
+  std::printf("\n");
+  if (j.contains("cost_measured")) {
+    std::printf("measured (instructions / latency / VGPRs over an I/O-only shader, hlsl --fast):");
+    for (const auto& [fam, st] : j["cost_measured"].items())
+      std::printf(" %s %s/%s/%s", fam.c_str(), num(st["instructions"].get<double>()).c_str(),
+                  num(st["latency"].get<double>()).c_str(), num(st["vgprs"].get<double>()).c_str());
+    std::printf("\n");
+  } else if (!measured_note.empty()) {
+    std::printf("%s\n", measured_note.c_str());
+  }
+  std::printf("discontinuity: %s\n", num(j["discontinuity"].get<double>()).c_str());
   return 0;
 }
 

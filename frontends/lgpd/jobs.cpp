@@ -1,5 +1,6 @@
 #include "jobs.hpp"
 #ifdef LGP_HAVE_EMIT
+#include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
 #endif
 
@@ -29,6 +30,17 @@ using nlohmann::json;
 namespace fs = std::filesystem;
 
 namespace {
+
+// Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp), as `lgp run` does; cached,
+// so a live snapshot measures only the members that are new since the last one.
+void addMeasuredCost([[maybe_unused]] const lgp::RunConfig& cfg, [[maybe_unused]] json& front) {
+#ifdef LGP_HAVE_EMIT
+  if (cfg.objectives.measured_cost.families.empty()) return;
+  lgp::emit::MeasureOptions mo;
+  mo.families = cfg.objectives.measured_cost.families;
+  lgp::emit::addMeasuredCost(front, mo);
+#endif
+}
 
 constexpr size_t kMaxNameLength = 120;
 constexpr size_t kTableCacheSize = 4;
@@ -593,6 +605,12 @@ void JobManager::runJob(Job& job) {
         search = std::make_unique<lgp::Search>(*cfg, *table);
       }
     }
+#ifdef LGP_HAVE_EMIT
+    if (auto st = lgp::emit::enableMeasuredCostInSearch(*search); !st) return fail(st.message());
+#else
+    if (cfg->objectives.measured_cost.in_search)
+      return fail("/objectives/measured_cost/in_search: this lgpd was built without lgp::emit");
+#endif
     if (!resumed) {
 #ifdef LGP_HAVE_EMIT
       if (cfg->search.seed_references) {
@@ -621,6 +639,7 @@ void JobManager::runJob(Job& job) {
     auto snapshot = [&]() {
       json front = lgp::frontToJson(*search, search->front());
       if (!scored_refs.is_null()) front["references"] = scored_refs;
+      addMeasuredCost(*cfg, front);
       best = bestPerObjective(front);
       return front;
     };
@@ -859,6 +878,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
     }
     json front = lgp::frontToJson(*viewer, viewer->front());
     if (!viewer_refs.is_null()) front["references"] = viewer_refs;
+    addMeasuredCost(cfg, front);
     return front;
   };
   auto pollStatus = [&] {
