@@ -26,7 +26,9 @@
 
 #include "lgp/config/config.hpp"
 #include "lgp/emit/emit.hpp"
+#include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
+#include "lgp/emit/vulkan_run.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/io/svg_plot.hpp"
@@ -159,6 +161,26 @@ std::string memberExpression(const json& m) {
   return s;
 }
 
+// The measured instructions of a member or reference on the report's family (NaN if none).
+constexpr const char* kCostFamily = "rdna2";
+double measuredInstructions(const json& m) {
+  if (!m.contains("cost_measured") || !m["cost_measured"].is_object() ||
+      !m["cost_measured"].contains(kCostFamily))
+    return NAN;
+  return getNum(m["cost_measured"][kCostFamily], "instructions");
+}
+
+// "14/15/14": every measured family, as `lgp front` shows it.
+std::string isaCell(const json& m) {
+  if (!m.contains("cost_measured") || !m["cost_measured"].is_object()) return "-";
+  std::string s;
+  for (const char* f : {"rdna2", "rdna3", "gcn5"})
+    s += (s.empty() ? "" : "/") + (m["cost_measured"].contains(f)
+                                       ? fmt(getNum(m["cost_measured"][f], "instructions"))
+                                       : std::string("-"));
+  return s;
+}
+
 // Best objective error among members of cost <= c.
 double bestAtCost(const json& members, double c) {
   double best = INFINITY;
@@ -193,6 +215,11 @@ struct TableResult {
   lgp::RunConfig cfg;
   lgp::Table table;
   json refs;
+  // Measured cost (docs/cost-models.md) of the final front and the references; the targets'
+  // cost limits use `cost_family`'s instructions when there are any.
+  bool measured = false;
+  std::string measured_note;  // why not, or the compiler
+  json vulkan;                // per member of the final front: lavapipe agreement (or why not)
   std::vector<Snapshot> snaps;
   std::vector<CurvePoint> curve;
   std::vector<AblationResult> ablation;
@@ -309,7 +336,8 @@ struct TargetOutcome {
   double limit = INFINITY;
   bool met = false;
   int member = -1;
-  double cost = NAN;
+  double cost = NAN;        // the member's measured instructions, else its model cost
+  double model_cost = NAN;  // the member's model cost
   std::vector<std::pair<double, double>> measured;  // (rmse, max) per channel
 };
 
@@ -319,17 +347,26 @@ const json* findRef(const json& refs, const std::string& name) {
   return nullptr;
 }
 
-TargetOutcome evaluateTarget(const TargetSpec& t, const json& members, const json& refs) {
+// A cost limit is in measured instructions (kCostFamily) when the front was measured: "at or
+// below Karis's cost" compares what the compiler makes of both, and the model figure is shown
+// beside it. Without measurements it is the model's.
+TargetOutcome evaluateTarget(const TargetSpec& t, const json& members, const json& refs,
+                             bool measured) {
   TargetOutcome o;
   o.name = t.name;
+  auto costOf = [&](const json& m) {
+    return measured ? measuredInstructions(m) : getNum(m, "cost", INFINITY);
+  };
+  const std::string unit = measured ? std::string(kCostFamily) + " instructions" : "cost";
   if (!t.max_cost_of.empty()) {
     const json* ref = findRef(refs, t.max_cost_of);
     if (!ref) die("target '" + t.name + "': no scored reference named '" + t.max_cost_of + "'");
-    o.limit = getNum(*ref, "cost");
-    o.limit_desc = "cost <= " + fmt(o.limit) + " (" + t.max_cost_of + ")";
+    o.limit = costOf(*ref);
+    o.limit_desc = unit + " <= " + fmt(o.limit) + " (" + t.max_cost_of +
+                   (measured ? "; model " + fmt(getNum(*ref, "cost")) : std::string()) + ")";
   } else {
     o.limit = t.max_cost;
-    o.limit_desc = "cost <= " + fmt(o.limit);
+    o.limit_desc = unit + " <= " + fmt(o.limit);
   }
   const json* beat = nullptr;
   if (!t.beat.empty()) {
@@ -362,7 +399,7 @@ TargetOutcome evaluateTarget(const TargetSpec& t, const json& members, const jso
   for (int pass = 1; pass >= 0 && o.member < 0; --pass)
     for (size_t i = 0; i < members.size(); ++i) {
       const json& m = members[i];
-      if (!(getNum(m, "cost", INFINITY) <= o.limit)) continue;
+      if (!(costOf(m) <= o.limit)) continue;
       if (pass && !passes(m)) continue;
       if (o.member < 0 || metricOf(m, first, "rmse") < metricOf(members[o.member], first, "rmse"))
         o.member = static_cast<int>(i);
@@ -370,7 +407,8 @@ TargetOutcome evaluateTarget(const TargetSpec& t, const json& members, const jso
   if (o.member >= 0) {
     const json& m = members[o.member];
     o.met = passes(m);
-    o.cost = getNum(m, "cost");
+    o.cost = costOf(m);
+    o.model_cost = getNum(m, "cost");
     for (const auto& ch : t.channels)
       o.measured.emplace_back(metricOf(m, ch, "rmse"), metricOf(m, ch, "max_abs"));
   }
@@ -422,17 +460,24 @@ json writeTargets(std::ostringstream& md, const TableResult& r) {
   const json& members = r.snaps.back().front.at("members");
   json tsum = json::array();
   if (s.targets.empty()) return tsum;
-  md << "### Targets\n\n| target | limit | threshold | measured (RMS / max) | cost | met |\n"
+  md << "### Targets\n\n"
+     << (r.measured
+             ? "Cost limits are measured " + std::string(kCostFamily) +
+                   " instructions (ACO, `lgp emit --lang hlsl --fast` code); the member's "
+                   "model cost is beside its measured count.\n\n"
+             : "Cost limits are model costs (no measured cost: " + r.measured_note + ").\n\n")
+     << "| target | limit | threshold | error (RMS / max) | cost | met |\n"
         "|---|---|---|---|---|---|\n";
   for (const auto& t : s.targets) {
-    const auto o = evaluateTarget(t, members, r.refs);
+    const auto o = evaluateTarget(t, members, r.refs, r.measured);
     std::string meas;
     for (size_t k = 0; k < o.measured.size(); ++k)
       meas += (k ? "; " : "") + t.channels[k] + ": " + fmt(o.measured[k].first) + " / " +
               fmt(o.measured[k].second);
     md << "| " << mdEscape(o.name) << " | " << mdEscape(o.limit_desc) << " | "
        << mdEscape(o.threshold_desc) << " | " << (meas.empty() ? "no member" : meas) << " | "
-       << fmt(o.cost) << (o.member >= 0 ? " (#" + std::to_string(o.member) + ")" : "") << " | "
+       << fmt(o.cost) << (r.measured ? " (model " + fmt(o.model_cost) + ")" : "")
+       << (o.member >= 0 ? " (#" + std::to_string(o.member) + ")" : "") << " | "
        << (o.met ? "yes" : "**no**") << " |\n";
     json mj = json::array();
     for (const auto& [a, b] : o.measured) mj.push_back({a, b});
@@ -441,6 +486,9 @@ json writeTargets(std::ostringstream& md, const TableResult& r) {
                     {"threshold", o.threshold_desc},
                     {"measured", mj},
                     {"cost", o.cost},
+                    {"model_cost", o.model_cost},
+                    {"cost_unit", r.measured ? std::string(kCostFamily) + " instructions"
+                                             : std::string("model")},
                     {"member", o.member},
                     {"met", o.met}});
   }
@@ -542,7 +590,8 @@ std::string metricCells(const json& m, const std::vector<std::string>& chans) {
 void writeFinalFront(std::ostringstream& md, const TableResult& r) {
   const Snapshot& fin = r.snaps.back();
   const json& members = fin.front.at("members");
-  std::string head = "| # | cost | disc | error |", rule = "|---|---|---|---|";
+  std::string head = "| # | cost | ISA rdna2/rdna3/gcn5 | disc | error |",
+              rule = "|---|---|---|---|---|";
   for (const auto& ch : r.channel_names) {
     head += " " + ch + " RMS | " + ch + " max |";
     rule += "---|---|";
@@ -552,9 +601,9 @@ void writeFinalFront(std::ostringstream& md, const TableResult& r) {
      << rule << "---|\n";
   for (size_t i = 0; i < members.size(); ++i) {
     const json& m = members[i];
-    md << "| " << i << " | " << fmt(getNum(m, "cost")) << " | " << fmt(getNum(m, "discontinuity"))
-       << " | " << fmt(getNum(m, "error", INFINITY)) << " |" << metricCells(m, r.channel_names)
-       << " `" << mdEscape(memberExpression(m)) << "` |\n";
+    md << "| " << i << " | " << fmt(getNum(m, "cost")) << " | " << isaCell(m) << " | "
+       << fmt(getNum(m, "discontinuity")) << " | " << fmt(getNum(m, "error", INFINITY)) << " |"
+       << metricCells(m, r.channel_names) << " `" << mdEscape(memberExpression(m)) << "` |\n";
   }
   md << "\n";
 }
@@ -564,9 +613,10 @@ void writeReferences(std::ostringstream& md, const TableResult& r) {
   const auto& chans = r.channel_names;
   md << "### Published formulas on the same table\n\n"
      << "\"(refit)\": the published structure with its constants fitted to this table "
-        "(Nelder-Mead with restarts).\n\n| name | cost | disc | error |";
+        "(Nelder-Mead with restarts). ISA: measured instructions of the same emitted code as "
+        "the members'.\n\n| name | cost | ISA rdna2/rdna3/gcn5 | disc | error |";
   for (const auto& ch : chans) md << " " << ch << " RMS | " << ch << " max |";
-  md << "\n|---|---|---|---|";
+  md << "\n|---|---|---|---|---|";
   for (size_t k = 0; k < chans.size(); ++k) md << "---|---|";
   md << "\n";
   for (const auto& ref : r.refs) {
@@ -576,10 +626,79 @@ void writeReferences(std::ostringstream& md, const TableResult& r) {
       continue;
     }
     md << "| " << mdEscape(ref.value("name", "")) << " | " << fmt(getNum(ref, "cost")) << " | "
-       << fmt(getNum(ref, "discontinuity")) << " | " << fmt(getNum(ref, "error", INFINITY)) << " |"
-       << metricCells(ref, chans) << "\n";
+       << isaCell(ref) << " | " << fmt(getNum(ref, "discontinuity")) << " | "
+       << fmt(getNum(ref, "error", INFINITY)) << " |" << metricCells(ref, chans) << "\n";
   }
   md << "\n";
+}
+
+// Every member of the final front run on lavapipe (emit/vulkan_run.hpp): GLSL and HLSL, float
+// and half, over the whole table.
+json verifyFront(const TableResult& r) {
+  const json& front = r.snaps.back().front;
+  const auto st = lgp::emit::vulkanRunStatus();
+  if (!st.available) return {{"unavailable", st.detail}};
+  json members = json::array();
+  for (size_t i = 0; i < front["members"].size(); ++i) {
+    auto in = lgp::emit::emitInputFromFront(front, i);
+    if (!in) die("member " + std::to_string(i) + ": " + in.error());
+    auto checks = lgp::emit::verifyOnVulkan(*in, r.table);
+    json cj = json::array();
+    if (!checks) {
+      cj = {{{"error", checks.error()}}};
+    } else {
+      for (const auto& c : *checks) {
+        json j = lgp::emit::toJson(c);
+        j["worst_scaled_ulp"] = c.skipped ? json(nullptr) : json(c.worstScaledUlp());
+        cj.push_back(j);
+      }
+    }
+    members.push_back({{"member", i}, {"checks", cj}});
+  }
+  return {{"device", st.detail}, {"rows", r.table.rows()}, {"members", members}};
+}
+
+// "### In a Vulkan driver": the agreement of every member's shaders with lgp.
+void writeVulkan(std::ostringstream& md, const TableResult& r) {
+  md << "### In a Vulkan driver\n\n";
+  if (r.vulkan.contains("unavailable")) {
+    md << "Not run: " << mdEscape(r.vulkan["unavailable"].get<std::string>()) << ".\n\n";
+    return;
+  }
+  md << "Every member of the final front as GLSL and HLSL compute shaders, in float and half, "
+        "on "
+     << mdEscape(r.vulkan["device"].get<std::string>()) << " over all " << r.table.rows()
+     << " rows (`lgp emit --verify vulkan`). Largest difference from lgp in ulps of the "
+        "output's largest |value| (float: the float32 interpreter; half: lgp's binary16 "
+        "emulation), and the driver's RMS error against the ground truth on the first output "
+        "beside the interpreter's.\n\n| # | GLSL float | GLSL half | HLSL float | HLSL half | "
+        "RMS (driver / lgp) |\n|---|---|---|---|---|---|\n";
+  double worst_f = 0, worst_h = 0;
+  for (const auto& m : r.vulkan["members"]) {
+    md << "| " << m["member"].get<size_t>() << " |";
+    std::string rms = "-";
+    for (const auto& c : m["checks"]) {
+      if (c.contains("error")) {
+        md << " error: " << mdEscape(c["error"].get<std::string>()) << " |";
+        continue;
+      }
+      if (c.contains("skipped")) {
+        md << " skipped |";
+        continue;
+      }
+      const double w =
+          c["worst_scaled_ulp"].is_number() ? c["worst_scaled_ulp"].get<double>() : INFINITY;
+      (c["precision"] == "half" ? worst_h : worst_f) =
+          std::max(c["precision"] == "half" ? worst_h : worst_f, w);
+      md << " " << fmt(w) << " |";
+      if (rms == "-" && c["precision"] == "float" && !c["outputs"].empty())
+        rms = fmt(getNum(c["outputs"][0]["driver"], "rmse", INFINITY)) + " / " +
+              fmt(getNum(c["outputs"][0]["reference"], "rmse", INFINITY));
+    }
+    md << " " << rms << " |\n";
+  }
+  md << "\nWorst: " << fmt(worst_f) << " ulps (float), " << fmt(worst_h)
+     << " binary16 ulps (half).\n\n";
 }
 
 // "### Search levers": the ablation runs (none: no section).
@@ -689,8 +808,8 @@ std::vector<int> writeRecommended(std::ostringstream& md, const TableResult& r,
   const std::string err_name = r.channel_names.empty() ? "" : r.channel_names.front();
   for (int i : rec) {
     const json& m = members[i];
-    md << "- #" << i << ", cost " << fmt(getNum(m, "cost")) << ", error "
-       << fmt(getNum(m, "error", INFINITY)) << ": ";
+    md << "- #" << i << ", cost " << fmt(getNum(m, "cost")) << " (measured " << isaCell(m)
+       << " instructions on rdna2/rdna3/gcn5), error " << fmt(getNum(m, "error", INFINITY)) << ": ";
     lgp::emit::EmitOptions eo;
     eo.function_name = "lgp_" + s.name + "_" + std::to_string(i);
     eo.source = "report member " + std::to_string(i);
@@ -720,6 +839,17 @@ void writeTableReport(std::ostringstream& md, const TableResult& r, const fs::pa
   writeFinalFront(md, r);
   writeReferences(md, r);
   writeAblation(md, r);
+  writeVulkan(md, r);
+  summary["vulkan"] = r.vulkan;
+  {
+    // The final front with its references and measured cost, as `lgp run` writes fronts (for
+    // lgp front, lgp emit and bench/cost).
+    json f = r.snaps.back().front;
+    f["references"] = r.refs;
+    write(dir / (r.spec.name + "_front.json"), f.dump(1) + "\n");
+    md << "The final front with its references: [" << r.spec.name << "_front.json](" << r.spec.name
+       << "_front.json).\n\n";
+  }
   summary["recommended"] = writeRecommended(md, r, dir);
 }
 
@@ -805,6 +935,22 @@ int qualityMain(int argc, char** argv) {
     std::fprintf(stderr, "lgp_quality: %s: searching to %g nominal minutes\n", spec_t.name.c_str(),
                  mins.back());
     runTable(r, mins, true);
+    {
+      // Measured cost of the final front and of the references (docs/cost-models.md).
+      json f = r.snaps.back().front;
+      f["references"] = r.refs;
+      lgp::emit::addMeasuredCost(f);
+      r.refs = f["references"];
+      f.erase("references");
+      const auto& info = f["cost_measured_info"];
+      r.measured = !info.contains("unavailable");
+      r.measured_note = r.measured ? info.value("compiler", std::string())
+                                   : info["unavailable"].get<std::string>();
+      r.snaps.back().front = std::move(f);
+      std::fprintf(stderr, "lgp_quality: %s: running the final front on lavapipe\n",
+                   spec_t.name.c_str());
+      r.vulkan = verifyFront(r);
+    }
     if (!args.count("no-ablation")) {
       const double am = quick ? 0.02 : spec_t.ablation_minutes;
       for (const auto& a : spec_t.ablation) {
