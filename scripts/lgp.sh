@@ -21,7 +21,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcpp-httplib-dev libsqlite3-dev
   openmpi-bin libopenmpi-dev
-  glslang-tools
+  glslang-tools glslang-dev libvulkan-dev mesa-vulkan-drivers
   chromium
 )
 
