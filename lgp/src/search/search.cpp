@@ -167,12 +167,13 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
   if (res.f < ind.obj.error) {
     for (size_t k = 0; k < slots.size(); ++k)
       ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
-    const double e = s.error(ind.program);
+    // Scored afresh: constants move the intervals (whether a piecewise op switches), the
+    // linear scale and which constants are free inline literals, so cost and discontinuity
+    // change with them.
+    const Objectives o = score(s, ind.program);
     ++evals;
-    if (std::isfinite(e) && e <= ind.obj.error) {
-      ind.obj.error = e;
-      // Constants move the intervals, so whether a piecewise op switches may change.
-      ind.obj.discontinuity = disc_.programDiscontinuity(ind.program, s.bound().effective);
+    if (std::isfinite(o.error) && o.error <= ind.obj.error) {
+      ind.obj = o;
     } else {
       for (size_t k = 0; k < slots.size(); ++k)
         ind.program.constants[slots[k]] = static_cast<float>(x0[k]);
