@@ -204,7 +204,8 @@ int emitMain(int argc, char** argv) {
   if (!e) return fail(e.error());
   if (*lang != lgp::emit::Language::Cpp && eo.header && !args.count("no-measure")) {
     // The code as emitted, compiled to AMD ISA: the header states what it costs.
-    std::string line = "Measured (ACO instructions / latency / VGPRs over an I/O-only shader):";
+    std::string line =
+        "Measured (ACO instructions / latency / VGPRs of this code over an I/O-only shader):";
     bool any = false;
     for (int f = 0; f < lgp::kNumGpuFamilies; ++f) {
       const auto fam = static_cast<lgp::GpuFamily>(f);

@@ -65,7 +65,8 @@ TEST_F(GpuCli, RunFrontScoreAndEmitShowMeasuredCost) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("rdna2/rdna3/gcn5"), std::string::npos) << r.out;
 
-  r = sh(lgp() + " score " + (dir / "t.csv").string() + " --expr 'B = exp2(-(7*mu + 4*r*r))'");
+  r = sh(lgp() + " score " + (dir / "t.csv").string() +
+         " --inputs mu,r --outputs B --expr 'B = exp2(-(7*mu + 4*r*r))'");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("measured (instructions"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("rdna2 "), std::string::npos) << r.out;
