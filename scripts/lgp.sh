@@ -10,7 +10,8 @@
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-BUILD_DIR="${BUILD_DIR:-$ROOT/build/release}"
+# Absolute, so that a relative BUILD_DIR means the same folder in every step.
+BUILD_DIR="$(realpath -m "${BUILD_DIR:-$ROOT/build/release}")"
 JOBS="${JOBS:-$(nproc)}"
 
 # Debian packages the project builds, tests and benchmarks with. Nothing is downloaded at
@@ -67,9 +68,9 @@ case "$cmd" in
   run)
     # The example needs the CLI only; tests and benchmarks are built by `test`.
     deps; build lgp
-    cd "$ROOT/examples"
-    "$BUILD_DIR/frontends/lgp" run quickstart.json
-    "$BUILD_DIR/frontends/lgp" front quickstart-front.json
+    # The config's output paths are relative to it: the front lands in examples/.
+    "$BUILD_DIR/frontends/lgp" run "$ROOT/examples/quickstart.json"
+    "$BUILD_DIR/frontends/lgp" front "$ROOT/examples/quickstart-front.json"
     ;;
   test)
     deps; build

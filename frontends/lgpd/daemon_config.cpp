@@ -263,4 +263,22 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
   return Status::ok();
 }
 
+void resolveConfigFilePaths(DaemonConfig& cfg, const std::filesystem::path& dir) {
+  auto resolve = [&](std::filesystem::path& p) {
+    if (!p.empty() && p.is_relative()) p = (dir / p).lexically_normal();
+  };
+  auto resolveIfPath = [&](auto& p) {
+    if (std::filesystem::path(p).string().find('/') == std::string::npos) return;
+    std::filesystem::path q(p);
+    resolve(q);
+    p = q.string();
+  };
+  resolve(cfg.data_dir);
+  resolve(cfg.data_base_dir);
+  for (auto& d : cfg.allowed_data_dirs) resolve(d);
+  resolve(cfg.mpi.hostfile);
+  resolveIfPath(cfg.mpi.launcher);
+  resolveIfPath(cfg.mpi.lgp);
+}
+
 }  // namespace lgpd

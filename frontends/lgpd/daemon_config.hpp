@@ -74,4 +74,10 @@ lgp::Status checkToken(const std::string& token);
 // name the key, e.g. "/max_jobs: must be an integer >= 1".
 lgp::Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg);
 
+// Makes the relative paths a config file set (data_dir, data_base_dir, allowed_data_dirs,
+// mpi.hostfile, and mpi.launcher or mpi.lgp where they contain a '/') relative to the file's
+// directory `dir`, as a run config's paths are. Bare names stay PATH lookups; paths from the
+// command line stay relative to the working directory.
+void resolveConfigFilePaths(DaemonConfig& cfg, const std::filesystem::path& dir);
+
 }  // namespace lgpd

@@ -67,6 +67,9 @@ int run(int argc, char** argv) {
                    s.message().c_str());
       return 2;
     }
+    std::filesystem::path dir =
+        std::filesystem::path(args["config"].as<std::string>()).parent_path();
+    lgpd::resolveConfigFilePaths(cfg, dir.empty() ? "." : dir);
   }
   if (args.count("data-dir")) cfg.data_dir = args["data-dir"].as<std::string>();
   if (args.count("listen")) cfg.listen = args["listen"].as<std::string>();

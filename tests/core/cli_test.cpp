@@ -68,6 +68,31 @@ TEST_F(Cli, RunWritesFrontAndFrontPrintsIt) {
   EXPECT_NE(f.out.find("members"), std::string::npos);
 }
 
+TEST_F(Cli, ConfigOutputsAreRelativeToTheConfigAndCliPathsToTheWorkingDirectory) {
+  // The config lives in sub/ and names its table and outputs relative to itself; the run
+  // starts in cwd/, so only the command line's paths land there.
+  fs::create_directories(dir / "sub");
+  fs::create_directories(dir / "cwd");
+  fs::copy_file(dir / "t.csv", dir / "sub" / "t.csv");
+  auto j = base(3);
+  j["output"] = {{"front_json", "named-front.json"}, {"front_csv", "named-front.csv"}};
+  const std::string cfg = config(j, "sub/c.json").string();
+  auto r = sh("cd " + (dir / "cwd").string() + " && " + lgp() + " run ../sub/c.json -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "sub" / "named-front.json"));
+  EXPECT_TRUE(fs::exists(dir / "sub" / "named-front.csv"));
+  EXPECT_FALSE(fs::exists(dir / "cwd" / "named-front.json"));
+  r = sh("cd " + (dir / "cwd").string() + " && " + lgp() + " front ../sub/named-front.json");
+  EXPECT_EQ(r.code, 0) << r.out;
+  r = sh("cd " + (dir / "cwd").string() + " && " + lgp() + " run " + cfg +
+         " -q -o cli-front.json --csv cli-front.csv --checkpoint ck.json --status st.json");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"cli-front.json", "cli-front.csv", "ck.json", "st.json"}) {
+    EXPECT_TRUE(fs::exists(dir / "cwd" / f)) << f;
+    EXPECT_FALSE(fs::exists(dir / "sub" / f)) << f;
+  }
+}
+
 TEST_F(Cli, BadConfigNamesTheFieldAndExitsNonZero) {
   auto j = base(5);
   j["search"]["population"] = "lots";

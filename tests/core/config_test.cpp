@@ -34,6 +34,22 @@ TEST(Config, DefaultsAreValid) {
   EXPECT_EQ(toJson(*again), toJson(*c));
 }
 
+TEST(Config, OutputPathsNamedInTheConfigAreRelativeToIt) {
+  json j = minimal();
+  j["output"] = {
+      {"front_json", "out/f.json"}, {"checkpoint", "ck.json"}, {"front_csv", "/tmp/f.csv"}};
+  auto c = parseRunConfig(j, "runs/dfg");
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_EQ(c->output.front_json, "runs/dfg/out/f.json");
+  EXPECT_EQ(c->output.checkpoint, "runs/dfg/ck.json");
+  EXPECT_EQ(c->output.front_csv, "/tmp/f.csv");  // absolute: as written
+  // Defaults stay in the working directory.
+  auto d = parseRunConfig(minimal(), "runs/dfg");
+  ASSERT_TRUE(d) << d.error();
+  EXPECT_EQ(d->output.front_json, "front.json");
+  EXPECT_EQ(d->output.checkpoint, "");
+}
+
 TEST(Config, UnknownKeyNamesItsPath) {
   json j = minimal();
   j["search"] = {{"popsize", 10}};

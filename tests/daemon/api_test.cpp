@@ -329,5 +329,26 @@ TEST_F(ApiTest, CliSubmitStatusAndFront) {
   EXPECT_EQ(code, 1);
 }
 
+// Paths in lgpd's --config file are relative to that file, like a run config's; lgpd's working
+// directory (the test's) holds no "tables" folder, so a cwd-relative data_base_dir would refuse
+// the submission's relative table path.
+TEST(DaemonConfigPaths, RelativeToTheConfigFile) {
+  TempDir tmp("cfg-paths");
+  fs::create_directories(tmp.path() / "conf" / "tables");
+  writeGridTable(tmp.path() / "conf" / "tables");
+  ASSERT_FALSE(fs::exists(fs::current_path() / "tables" / "table.csv"));
+  fs::path cfg = tmp.path() / "conf" / "lgpd.json";
+  std::ofstream(cfg) << json{{"data_base_dir", "tables"}}.dump();
+  Daemon d(tmp.path() / "state");
+  ASSERT_TRUE(d.start({"--config", cfg.string()}));
+  Reply r;
+  const std::string id = d.submit(runConfig("table.csv", 3), &r);
+  EXPECT_FALSE(id.empty()) << r.status << " " << r.body;
+  if (!id.empty()) {
+    EXPECT_EQ(d.waitDone(id).value("status", ""), "finished") << d.log();
+  }
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 }  // namespace
 }  // namespace lgpd_test

@@ -373,12 +373,23 @@ void parseEval(const nlohmann::json& j, EvalConfig& e) {
     fail("/eval/block_size", "must be a multiple of 16 (got " + std::to_string(e.block_size) + ")");
 }
 
-void parseOutput(const nlohmann::json& j, OutputConfig& out) {
+// A relative output path named in a config file is relative to that file, like data.path, so a
+// run writes the same files from any working directory.
+void resolveNamedPath(std::string& p, const std::filesystem::path& base_dir) {
+  if (p.empty() || base_dir.empty() || std::filesystem::path(p).is_absolute()) return;
+  p = (base_dir / p).lexically_normal().string();
+}
+
+void parseOutput(const nlohmann::json& j, OutputConfig& out, const std::filesystem::path& base) {
   Obj o(j, "/output");
-  o.string("front_json", out.front_json);
-  o.string("front_csv", out.front_csv);
+  for (auto [key, path] : {std::pair<const char*, std::string*>{"front_json", &out.front_json},
+                           {"front_csv", &out.front_csv},
+                           {"checkpoint", &out.checkpoint}})
+    if (o.has(key)) {
+      o.string(key, *path);
+      resolveNamedPath(*path, base);
+    }
   o.number("progress_interval_s", out.progress_interval_s, 0, 1e6);
-  o.string("checkpoint", out.checkpoint);
   o.number("checkpoint_interval_s", out.checkpoint_interval_s, 0, 1e9);
   if (o.has("progress_cost_levels")) {
     const auto& v = o.at("progress_cost_levels");
@@ -522,7 +533,7 @@ Expected<RunConfig> parseRunConfig(const nlohmann::json& j, const std::filesyste
     if (o.has("objectives")) parseObjectives(o.at("objectives"), c.objectives);
     if (o.has("search")) parseSearch(o.at("search"), c.search);
     if (o.has("eval")) parseEval(o.at("eval"), c.eval);
-    if (o.has("output")) parseOutput(o.at("output"), c.output);
+    if (o.has("output")) parseOutput(o.at("output"), c.output, base_dir);
     if (o.has("mpi")) parseMpi(o.at("mpi"), c.mpi);
     if (o.has("references")) {
       const auto& r = o.at("references");

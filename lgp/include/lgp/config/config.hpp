@@ -165,8 +165,11 @@ struct EvalConfig {
   int block_size = 256;  // rows per interpreter block; multiple of 16, in [16, 16384]
 };
 
+// A relative path named in a config file is relative to that file's directory (parseRunConfig
+// joins it to base_dir), like data.path; the defaults and paths given on the command line
+// (`lgp run -o`, `--csv`, `--checkpoint`, `--status`) are relative to the working directory.
 struct OutputConfig {
-  std::string front_json = "front.json";     // relative to the working directory
+  std::string front_json = "front.json";     // default: in the working directory
   std::string front_csv = "front.csv";       // empty = not written
   double progress_interval_s = 1.0;          // progress line period; 0 = every generation
   std::vector<double> progress_cost_levels;  // best error at cost <= c; empty = automatic
