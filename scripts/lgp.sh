@@ -6,6 +6,8 @@
 #                         test suite
 #   scripts/lgp.sh deps   only install the Debian packages
 #   scripts/lgp.sh build [TARGET...]  install + build the targets (default: everything)
+#   scripts/lgp.sh install [PREFIX]   build lgp, lgpd and the libraries, and install them,
+#                         their headers and the CMake package under PREFIX (default ~/.local)
 # Environment: BUILD_DIR (default build/release), JOBS (default nproc).
 set -euo pipefail
 
@@ -72,12 +74,19 @@ case "$cmd" in
     "$BUILD_DIR/frontends/lgp" run "$ROOT/examples/quickstart.json"
     "$BUILD_DIR/frontends/lgp" front "$ROOT/examples/quickstart-front.json"
     ;;
+  install)
+    prefix="$(realpath -m "${2:-$HOME/.local}")"
+    deps; build lgp_installables
+    cmake --install "$BUILD_DIR" --prefix "$prefix"
+    echo "lgp: installed lgp and lgpd in $prefix/bin; put it on PATH with"
+    echo "  export PATH=\"$prefix/bin:\$PATH\""
+    ;;
   test)
     deps; build
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600
     ;;
   *)
-    echo "usage: scripts/lgp.sh run|test|deps|build" >&2
+    echo "usage: scripts/lgp.sh run|test|deps|build|install [PREFIX]" >&2
     exit 2
     ;;
 esac
