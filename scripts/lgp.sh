@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # One entry point for a fresh machine:
-#   scripts/lgp.sh run    install what is missing, build the `lgp` CLI (Release) and only it,
-#                         run the example search
-#   scripts/lgp.sh test   install what is missing, build everything (Release), run the whole
-#                         test suite
-#   scripts/lgp.sh deps   only install the Debian packages
-#   scripts/lgp.sh build [TARGET...]  install + build the targets (default: everything)
+#   scripts/lgp.sh run    install the packages the CLI needs (RUN_PACKAGES) where missing,
+#                         build the `lgp` CLI (Release) and only it, run the example search
+#   scripts/lgp.sh test   install every package (RUN_PACKAGES and TEST_PACKAGES), build
+#                         everything (Release), run the whole test suite
+#   scripts/lgp.sh deps   only install every package
+#   scripts/lgp.sh build [TARGET...]  install every package + build the targets (default: all)
 #   scripts/lgp.sh install [PREFIX]   build lgp, lgpd and the libraries, and install them,
 #                         their headers and the CMake package under PREFIX (default ~/.local)
 # Environment: BUILD_DIR (default build/release), JOBS (default nproc).
@@ -16,25 +16,40 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 BUILD_DIR="$(realpath -m "${BUILD_DIR:-$ROOT/build/release}")"
 JOBS="${JOBS:-$(nproc)}"
 
-# Debian packages the project builds, tests and benchmarks with. Nothing is downloaded at
-# build time and nothing is vendored.
-PACKAGES=(
-  build-essential cmake ninja-build pkg-config
+# Debian packages. Nothing is downloaded at build time and nothing is vendored.
+# What `run` needs: the compiler and every find_package(... REQUIRED) of the top-level
+# CMakeLists.txt outside the tests and benchmarks (Eigen3, nlohmann_json, spdlog, cxxopts;
+# OpenMP and Threads come with the compiler).
+RUN_PACKAGES=(
+  build-essential cmake ninja-build
   libeigen3-dev nlohmann-json3-dev libspdlog-dev libcxxopts-dev
+)
+# lgpd (without them CMake skips the daemon): SQLite, cpp-httplib and pkg-config to find it.
+DAEMON_PACKAGES=(pkg-config libcpp-httplib-dev libsqlite3-dev)
+# The rest, for `test`: the test and benchmark libraries (LGP_BUILD_TESTS, LGP_BUILD_BENCH),
+# MPI (LGP_WITH_MPI), the GPU backend (LGP_WITH_GPU) and Chromium for the browser test.
+TEST_PACKAGES=(
+  "${DAEMON_PACKAGES[@]}"
   libgtest-dev libgmock-dev libbenchmark-dev
-  libcpp-httplib-dev libsqlite3-dev
   openmpi-bin libopenmpi-dev
   glslang-tools glslang-dev libvulkan-dev mesa-vulkan-drivers
   chromium
 )
+# The find_package names TEST_PACKAGES provide: a `run` build must configure without them
+# (tests/repo/run_packages_test.sh checks it).
+TEST_FIND_PACKAGES=(GTest benchmark MPI Vulkan glslang SQLite3 httplib PkgConfig)
+# The cache options of a `run` build: no tests or benchmarks, so GTest and benchmark are not
+# required.
+RUN_CMAKE_ARGS=(-DLGP_BUILD_TESTS=OFF -DLGP_BUILD_BENCH=OFF)
 
+# Installs the given packages where missing.
 deps() {
   local missing=()
-  for p in "${PACKAGES[@]}"; do
+  for p in "$@"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   if ((${#missing[@]} == 0)); then
-    echo "lgp: all ${#PACKAGES[@]} packages present"
+    echo "lgp: all $# packages present"
     return
   fi
   echo "lgp: installing ${missing[*]}"
@@ -45,14 +60,17 @@ deps() {
     "${missing[@]}" >/dev/null
 }
 
-# Configures the whole project (tests and benchmarks included, so a later `test` reuses the
-# build tree) and builds the given targets, or everything.
+# Configures the project with the cache options in CMAKE_ARGS (default: tests and benchmarks
+# on) and builds the given targets, or everything. `run` and `test` share the build tree: the
+# libraries and binaries do not depend on those options, so switching does not rebuild them.
+CMAKE_ARGS=(-DLGP_BUILD_TESTS=ON -DLGP_BUILD_BENCH=ON)
 build() {
   # Ninja schedules every compile of the project in one graph; make waits at each library's
   # end with one core idle. An existing build tree keeps the generator it was made with.
   local gen=()
   if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]] && command -v ninja >/dev/null; then gen=(-G Ninja); fi
-  cmake -S "$ROOT" -B "$BUILD_DIR" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake -S "$ROOT" -B "$BUILD_DIR" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${CMAKE_ARGS[@]}" \
+    >/dev/null
   if (($# > 0)); then
     cmake --build "$BUILD_DIR" -j "$JOBS" --target "$@"
   else
@@ -60,29 +78,38 @@ build() {
   fi
 }
 
+# Sourced (by the tests), it only defines the lists above.
+if [[ "${BASH_SOURCE[0]}" != "$0" ]]; then return 0; fi
+
 cmd="${1:-}"
 case "$cmd" in
-  deps) deps ;;
+  deps) deps "${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}" ;;
   build)
     shift
-    deps; build "$@"
+    deps "${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}"
+    build "$@"
     ;;
   run)
     # The example needs the CLI only; tests and benchmarks are built by `test`.
-    deps; build lgp
+    deps "${RUN_PACKAGES[@]}"
+    CMAKE_ARGS=("${RUN_CMAKE_ARGS[@]}")
+    build lgp
     # The config's output paths are relative to it: the front lands in examples/.
     "$BUILD_DIR/frontends/lgp" run "$ROOT/examples/quickstart.json"
     "$BUILD_DIR/frontends/lgp" front "$ROOT/examples/quickstart-front.json"
     ;;
   install)
     prefix="$(realpath -m "${2:-$HOME/.local}")"
-    deps; build lgp_installables
+    deps "${RUN_PACKAGES[@]}" "${DAEMON_PACKAGES[@]}"
+    CMAKE_ARGS=("${RUN_CMAKE_ARGS[@]}")
+    build lgp_installables
     cmake --install "$BUILD_DIR" --prefix "$prefix"
     echo "lgp: installed lgp and lgpd in $prefix/bin; put it on PATH with"
     echo "  export PATH=\"$prefix/bin:\$PATH\""
     ;;
   test)
-    deps; build
+    deps "${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}"
+    build
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600
     ;;
   *)
