@@ -24,7 +24,7 @@
 
 namespace lgp {
 
-// Default: the error may grow by 0.1 %, well inside the archive's 1 % error boxes.
+// Default: the error may grow by 0.1 %, well inside the archive's 2.3 % error boxes.
 inline constexpr double kSnapTolerance = 1e-3;
 
 struct SnapOptions {

@@ -25,7 +25,7 @@ std::vector<double> crowdingDistance(const std::vector<Objectives>& objs,
 
 struct ArchiveConfig {
   int max_size = 256;              // hard bound on members
-  double eps_log10_error = 0.01;   // error box width in decades (1 % relative)
+  double eps_log10_error = 0.01;   // error box width in decades (0.01: 2.3 % relative)
   double eps_cost = 0.0;           // cost box width (0 = exact)
   double eps_discontinuity = 0.0;  // discontinuity box width (0 = exact)
   Status validate() const;
@@ -43,7 +43,7 @@ struct ArchiveMember {
 // (floor(log10(error)/eps_e), floor(cost/eps_c), floor(disc/eps_d)); a box holds at most one
 // member (the one that dominates, else the lower error), and a candidate whose box is
 // dominated by a member's box is rejected. With eps_c = eps_d = 0 every distinct cost keeps
-// its own trade-off, and errors closer than 1 % (default) collapse to one member. If the
+// its own trade-off, and errors within one 2.3 % box (default) collapse to one member. If the
 // archive still exceeds max_size, the member with the smallest crowding distance is removed
 // (never the lowest-error or lowest-cost member). Non-finite members are never inserted.
 class Archive {
