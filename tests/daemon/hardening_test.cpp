@@ -163,29 +163,31 @@ TEST_F(Hardening, FramingAndContentTypeGetTheirCodes) {
   // Content-Length: -5 and other lengths that are not a number of bytes.
   for (const char* len : {"-5", "abc", "1e3", "99999999999999999999999"}) {
     std::string r = rawRequest(
-        d.port(), std::string("POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n") +
+        d.port(), std::string("POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n") +
                       "Content-Type: application/json\r\nContent-Length: " + len + "\r\n\r\n{}");
     EXPECT_EQ(statusOf(r), 400) << len << ": " << r;
   }
   // Over the limit by its Content-Length: 413 before the body is read.
   std::string r = rawRequest(d.port(),
-                             "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: "
+                             "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
                              "application/json\r\nContent-Length: 300000000\r\n\r\n{");
   EXPECT_EQ(statusOf(r), 413) << r;
   // No length at all.
-  r = rawRequest(d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n\r\n");
+  r = rawRequest(d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
   EXPECT_EQ(statusOf(r), 411) << r;
   // Both framings, an unknown transfer coding, a body on a GET, an unsupported method.
   r = rawRequest(d.port(),
-                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n"
+                 "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 2\r\n"
                  "Transfer-Encoding: chunked\r\n\r\n{}");
   EXPECT_EQ(statusOf(r), 400) << r;
-  r = rawRequest(d.port(),
-                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip\r\n\r\n");
+  r = rawRequest(
+      d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: gzip\r\n\r\n");
   EXPECT_EQ(statusOf(r), 501) << r;
-  r = rawRequest(d.port(), "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n\r\nabc");
+  r = rawRequest(d.port(),
+                 "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 3\r\n\r\nabc");
   EXPECT_EQ(statusOf(r), 400) << r;
-  r = rawRequest(d.port(), "PUT /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+  r = rawRequest(d.port(),
+                 "PUT /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\n\r\n");
   EXPECT_EQ(statusOf(r), 405) << r;
   // A body over 8 KB without a JSON content type (what `curl -d` sends): 415, not 413.
   std::string padded = cfg;
@@ -213,9 +215,10 @@ TEST_F(Hardening, ChunkedBodyOverTheLimitIsCutOff) {
   // passed and stops reading; the client could send only a bounded amount.
   int fd = connectFrom("127.0.0.1", daemon_->port());
   ASSERT_GE(fd, 0);
-  ASSERT_TRUE(sendAll(fd,
-                      "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                      "Transfer-Encoding: chunked\r\n\r\n"));
+  ASSERT_TRUE(
+      sendAll(fd,
+              "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+              "Transfer-Encoding: chunked\r\n\r\n"));
   const std::string chunk = "10000\r\n" + std::string(0x10000, ' ') + "\r\n";
   size_t sent = 0;
   std::string response;
@@ -362,7 +365,7 @@ class SlowClients {
     for (int i = 0; i < n; ++i) {
       int fd = connectFrom(src, port);
       if (fd < 0) continue;
-      sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\nX-Slow: ");
+      sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ");
       fds_.push_back(fd);
     }
     thread_ = std::thread([this] {
@@ -406,7 +409,7 @@ TEST_F(Hardening, SlowClientsDoNotStopTheApi) {
   sleepMs(300);
   int fd = connectFrom("127.0.0.3", d.port());
   ASSERT_GE(fd, 0);
-  sendAll(fd, "GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\n");
+  sendAll(fd, "GET /api/v1/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
   std::string r = readAll(fd, 5);
   ::close(fd);
   EXPECT_EQ(statusOf(r), 429) << r;
@@ -423,7 +426,7 @@ TEST(HardeningServe, SlowRequestIsDroppedAtItsDeadline) {
   // 2 s: the connection is closed within a few seconds.
   int fd = connectFrom("127.0.0.1", d.port());
   ASSERT_GE(fd, 0);
-  sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\n");
+  sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n");
   bool closed = false;
   std::string answer;
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
