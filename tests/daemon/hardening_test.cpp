@@ -316,6 +316,31 @@ TEST_F(Hardening, DataFileMustBeARegularReadableFile) {
   EXPECT_NE(rb.value("error", "").find("FIFO"), std::string::npos) << rb.dump();
 }
 
+TEST_F(Hardening, ControlCharactersInNamesAndPathsGet400) {
+  // Issue 21: such a name reached the comments of /front/{k}/code as live code.
+  const std::string inject = "mu\n#include </etc/shadow>\nint pwn(){return 1;}\n//";
+  json inline_cfg = runConfig(table_, 5);
+  inline_cfg["data"].erase("path");
+  inline_cfg["data"]["table"] = {{"columns",
+                                  {{"x", {0.1, 0.2, 0.3, 0.4}},
+                                   {"y", {1, 2, 3, 4}},
+                                   {"f", {1, 0, 1, 0}},
+                                   {inject, {0, 0, 0, 0}}}}};
+  json j = refused(inline_cfg.dump(), 400, "an inline table column name with newlines");
+  EXPECT_NE(j.value("error", "").find("/data/table: /columns"), std::string::npos) << j.dump();
+  EXPECT_NE(j.value("error", "").find("control character"), std::string::npos) << j.dump();
+  EXPECT_EQ(j.value("error", "").find("pwn"), std::string::npos) << j.dump();
+  json named = runConfig(table_, 5);
+  named["data"]["inputs"] = {"x", inject};
+  j = refused(named.dump(), 400, "an input name with newlines");
+  EXPECT_EQ(j.value("field", ""), "/data/inputs/1") << j.dump();
+  json path = runConfig(table_, 5);
+  path["data"]["path"] = table_.string() + "\nint pwn();";
+  j = refused(path.dump(), 400, "a data path with a newline");
+  EXPECT_EQ(j.value("field", ""), "/data/path") << j.dump();
+  EXPECT_EQ(runCount(), 0u);
+}
+
 TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
 #ifndef LGPD_TEST_HAVE_DATASETS
   GTEST_SKIP() << "lgpd without the datasets library";

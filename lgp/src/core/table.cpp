@@ -1,4 +1,5 @@
 #include "lgp/core/table.hpp"
+#include "lgp/core/text_check.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -62,6 +63,7 @@ Status Table::validate() const {
   if (n == 0) return Status::error("table has no rows");
   std::set<std::string> seen;
   auto check = [&](const std::string& name, const std::vector<double>& col) -> Status {
+    if (auto s = checkNoControlCharacters(name, "a column name"); !s) return s;
     if (!seen.insert(name).second) return Status::error("column '" + name + "' appears twice");
     if (col.size() != n)
       return Status::error("column '" + name + "' has " + std::to_string(col.size()) +
@@ -162,6 +164,11 @@ Expected<RawTable> readCsv(const std::filesystem::path& path) {
   for (size_t c = 0; c < t.names.size(); ++c) {
     if (t.names[c].empty())
       return Status::error(f + ": header, column " + std::to_string(c + 1) + ": empty name");
+    if (auto s = checkNoControlCharacters(t.names[c], f + ": line " + std::to_string(lineno) +
+                                                          " (header), column " +
+                                                          std::to_string(c + 1) + ": the name");
+        !s)
+      return s;
     if (!seen.insert(t.names[c]).second)
       return Status::error(f + ": header, column " + std::to_string(c + 1) + " ('" + t.names[c] +
                            "'): duplicate name");
@@ -205,6 +212,10 @@ Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& f)
   size_t n = 0;
   bool first = true;
   for (auto it = j["columns"].begin(); it != j["columns"].end(); ++it) {
+    if (auto s = checkNoControlCharacters(
+            it.key(), f + ": /columns: the name of column " + std::to_string(t.names.size() + 1));
+        !s)
+      return s;
     const std::string at = f + ": /columns/" + it.key();
     if (!it.value().is_array()) return Status::error(at + ": must be an array of numbers");
     std::vector<double> col;

@@ -1,4 +1,5 @@
 #include "lgp/io/result.hpp"
+#include "lgp/core/text_check.hpp"
 
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
@@ -106,11 +107,10 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"ranks", p.ranks},
             {"remote_migrants", p.remote_migrants}}},
           // With measured cost in the search, members' "cost" is measured instructions.
-          {"cost_model", cfg.objectives.measured_cost.in_search &&
-                                 !cfg.objectives.measured_cost.families.empty()
-                             ? "measured:" + std::string(toString(
-                                                 cfg.objectives.measured_cost.families.front()))
-                             : std::string(toString(cfg.objectives.cost_model))},
+          {"cost_model",
+           cfg.objectives.measured_cost.in_search && !cfg.objectives.measured_cost.families.empty()
+               ? "measured:" + std::string(toString(cfg.objectives.measured_cost.families.front()))
+               : std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
           {"error_channels", channelNames(err_cfg, t.output_names)},
           {"members", members},
@@ -251,6 +251,28 @@ Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
     return Status::error(f + ": /members: must be an array");
   if (!j.contains("table") || !j["table"].contains("inputs") || !j["table"].contains("outputs"))
     return Status::error(f + ": /table: must name inputs and outputs");
+  // Names and the data path are copied into messages and the comments of emitted code.
+  for (const char* key : {"inputs", "outputs"}) {
+    const auto& names = j["table"][key];
+    if (!names.is_array()) return Status::error(f + ": /table/" + key + ": must be an array");
+    for (size_t i = 0; i < names.size(); ++i) {
+      if (!names[i].is_string())
+        return Status::error(f + ": /table/" + key + "/" + std::to_string(i) +
+                             ": must be a string");
+      if (auto s = checkNoControlCharacters(names[i].get<std::string>(),
+                                            f + ": /table/" + key + "/" + std::to_string(i));
+          !s)
+        return s;
+    }
+  }
+  if (j.contains("config") && j["config"].is_object() && j["config"].contains("data") &&
+      j["config"]["data"].is_object())
+    for (const char* key : {"path", "scene"})
+      if (const auto& d = j["config"]["data"]; d.contains(key) && d[key].is_string())
+        if (auto s =
+                checkNoControlCharacters(d[key].get<std::string>(), f + ": /config/data/" + key);
+            !s)
+          return s;
   for (size_t i = 0; i < j["members"].size(); ++i) {
     const auto& m = j["members"][i];
     const std::string at = f + ": /members/" + std::to_string(i);
