@@ -1,6 +1,8 @@
-// Text from tables, configs and fronts that reaches messages and emitted code (issue 21):
-// a control character in a column name or a data path is refused at every loader, with a
-// message that names the field and does not quote the text.
+// Text from tables, configs and fronts that reaches messages and emitted code (issue 21): a control
+// character in a column name or a data path is refused at every loader, with a message that names
+// the field and does not quote the text; an error about a data file names its path, line and column
+// but quotes none of it (it may be a symlink to a secret); CSV is read as RFC 4180 says, with
+// decimal numbers only.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -10,6 +12,8 @@
 #include <nlohmann/json.hpp>
 
 #include "lgp/config/config.hpp"
+#include "lgp/config/json_reader.hpp"
+#include "lgp/core/csv.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/core/text_check.hpp"
 #include "lgp/io/result.hpp"
@@ -107,6 +111,109 @@ TEST_F(UntrustedText, FrontWithControlCharactersIsRefused) {
   EXPECT_TRUE(contains(f.error(), "front.json: /config/data/path")) << f.error();
   front["config"]["data"]["path"] = "/d/t.csv";
   EXPECT_TRUE(readFrontJson(write("front.json", front.dump())).hasValue());
+}
+
+TEST_F(UntrustedText, QuotedHeaderNameWithANewlineIsRefused) {
+  auto t = readCsv(write("q.csv", "x,\"" + kInject + "\",f\n1,2,3\n"));
+  ASSERT_FALSE(t.hasValue());
+  expectRefused(t.status(), "q.csv: line 1 (header), column 2: the name", "quoted newline");
+}
+
+// --- errors quote nothing of the file -----------------------------------------------------
+
+TEST_F(UntrustedText, ErrorsAboutADataFileNameLineAndColumnButQuoteNothing) {
+  const std::string secret = "root:SECRET-7f3a9c:19000:0:99999:7:::";
+  const fs::path shadow = write("shadow", secret + "\ndaemon:SECRET-b2:19000::::::\n");
+  fs::create_symlink(shadow, dir / "data.csv");
+  fs::create_symlink(shadow, dir / "data.json");
+  for (const fs::path& p : {dir / "data.csv", dir / "data.json"}) {
+    auto t = readTableFile(p);
+    ASSERT_FALSE(t.hasValue()) << p;
+    EXPECT_TRUE(contains(t.error(), p.string() + ": ")) << t.error();
+    EXPECT_TRUE(contains(t.error(), "line ")) << t.error();
+    EXPECT_TRUE(contains(t.error(), "column ")) << t.error();
+    EXPECT_FALSE(contains(t.error(), "SECRET")) << t.error();
+    EXPECT_FALSE(contains(t.error(), "root")) << t.error();
+    EXPECT_FALSE(contains(t.error(), "last read")) << t.error();
+  }
+  auto csv = readCsv(dir / "data.csv");
+  EXPECT_EQ(csv.error(), (dir / "data.csv").string() + ": line 2, column 1: not a decimal number");
+  // A CSV whose header is fine and whose cell is not a number: no name, no value.
+  auto cell = readCsv(write("cell.csv", "x,f\n1,2\n3,SECRET\n"));
+  ASSERT_FALSE(cell.hasValue());
+  EXPECT_EQ(cell.error(), (dir / "cell.csv").string() + ": line 3, column 2: not a decimal number");
+  auto dup = readCsv(write("dup.csv", "SECRET,SECRET\n1,2\n"));
+  ASSERT_FALSE(dup.hasValue());
+  EXPECT_EQ(dup.error(),
+            (dir / "dup.csv").string() + ": line 1 (header), column 2: the same name as column 1");
+  // The JSON reader's messages: line and column, not the text.
+  for (const std::string& text :
+       {std::string("SECRET"), std::string("{\"a\": SECRET}"), std::string("{\"a\": \"SECRET\n\"}"),
+        std::string("[1e999, \"SECRET\"]")}) {
+    auto j = parseJson(text);
+    ASSERT_FALSE(j.hasValue()) << text;
+    EXPECT_FALSE(contains(j.error(), "SECRET")) << j.error();
+    EXPECT_FALSE(contains(j.error(), "1e999")) << j.error();
+  }
+  EXPECT_TRUE(contains(parseJson("{\n \"a\": SECRET}").error(), "line 2, column "))
+      << parseJson("{\n \"a\": SECRET}").error();
+}
+
+// --- RFC 4180 and numbers -----------------------------------------------------------------
+
+TEST_F(UntrustedText, QuotedCsvFieldsFollowRfc4180) {
+  auto t = readCsv(write("q.csv",
+                         "\"x\", \"y, z\" ,\"a \"\"q\"\"\"\r\n"
+                         "\"1.5\",2,3\r\n"
+                         "# a comment\n"
+                         "  4 , \"5\",\"6\"\n"));
+  ASSERT_TRUE(t.hasValue()) << t.error();
+  EXPECT_EQ(t->names, (std::vector<std::string>{"x", "y, z", "a \"q\""}));
+  EXPECT_EQ(t->columns[0], (std::vector<double>{1.5, 4}));
+  EXPECT_EQ(t->columns[1], (std::vector<double>{2, 5}));
+  // "1,5" is one field (not a number), not two.
+  auto one = readCsv(write("one.csv", "x,f\n\"1,5\",2\n"));
+  ASSERT_FALSE(one.hasValue());
+  EXPECT_TRUE(contains(one.error(), "line 2, column 1: not a decimal number")) << one.error();
+  auto open = readCsv(write("open.csv", "x,f\n1,2\n3,\"4\n5,6\n"));
+  ASSERT_FALSE(open.hasValue());
+  EXPECT_TRUE(contains(open.error(), "line 3, column 2: a quoted field is not closed"))
+      << open.error();
+  auto stray = readCsv(write("stray.csv", "x,f\n1,2\"3\n"));
+  ASSERT_FALSE(stray.hasValue());
+  EXPECT_TRUE(contains(stray.error(), "line 2, column 2: a double quote inside an unquoted field"))
+      << stray.error();
+  auto after = readCsv(write("after.csv", "x,f\n1,\"2\"3\n"));
+  ASSERT_FALSE(after.hasValue());
+  EXPECT_TRUE(contains(after.error(), "line 2, column 2: text after the closing quote"))
+      << after.error();
+}
+
+TEST_F(UntrustedText, HexInfAndNanAreRefusedWithLineAndColumn) {
+  const char* const accepted = nullptr;
+  const std::vector<std::pair<const char*, const char*>> cases = {
+      {"0x10", "a hexadecimal number"},
+      {"-0X1p3", "a hexadecimal number"},
+      {"inf", "inf or nan"},
+      {"-Infinity", "inf or nan"},
+      {"nan", "inf or nan"},
+      {"NAN(1)", "inf or nan"},
+      {"1e999", "outside the range of double"},
+      {"", "empty cell"},
+      {"1.", accepted},
+      {".5e-3", accepted},
+      {"+2E+2", accepted},
+      {"1e", "not a decimal number"},
+      {"1 2", "not a decimal number"}};
+  for (const auto& [cell, why] : cases) {
+    auto t = readCsv(write("n.csv", std::string("x,f\n1,2\n3,") + cell + "\n"));
+    if (!why) {
+      EXPECT_TRUE(t.hasValue()) << cell << ": " << (t ? "" : t.error());
+      continue;
+    }
+    ASSERT_FALSE(t.hasValue()) << cell;
+    EXPECT_TRUE(contains(t.error(), "n.csv: line 3, column 2: " + std::string(why))) << t.error();
+  }
 }
 
 }  // namespace

@@ -341,6 +341,25 @@ TEST_F(Hardening, ControlCharactersInNamesAndPathsGet400) {
   EXPECT_EQ(runCount(), 0u);
 }
 
+TEST_F(Hardening, DataFileErrorsQuoteNothingOfTheFile) {
+  // Issue 21: a symlink to /etc/shadow as the data path got a 400 that quoted its lines, and
+  // a non-CSV file leaked its first character through the JSON parser's message.
+  const fs::path secret = tmp_->path() / "secret.txt";
+  std::ofstream(secret) << "root:SECRET-7f3a9c:19000:0:99999:7:::\nbin:SECRET-b2:19000::::::\n";
+  for (const char* name : {"link.csv", "link.json"}) {
+    const fs::path link = tmp_->path() / name;
+    fs::create_symlink(secret, link);
+    json j = refused(runConfig(link, 5).dump(), 400, name);
+    const std::string e = j.value("error", "");
+    EXPECT_NE(e.find(link.string()), std::string::npos) << e;
+    EXPECT_NE(e.find("line "), std::string::npos) << e;
+    EXPECT_NE(e.find("column "), std::string::npos) << e;
+    EXPECT_EQ(e.find("SECRET"), std::string::npos) << e;
+    EXPECT_EQ(e.find("root"), std::string::npos) << e;
+  }
+  EXPECT_EQ(runCount(), 0u);
+}
+
 TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
 #ifndef LGPD_TEST_HAVE_DATASETS
   GTEST_SKIP() << "lgpd without the datasets library";
