@@ -1,8 +1,9 @@
-// Text from tables, configs and fronts that reaches messages and emitted code (issue 21): a control
-// character in a column name or a data path is refused at every loader, with a message that names
-// the field and does not quote the text; an error about a data file names its path, line and column
-// but quotes none of it (it may be a symlink to a secret); CSV is read as RFC 4180 says, with
-// decimal numbers only.
+// Text from tables, configs and fronts that reaches messages, emitted code and spreadsheets
+// (issue 21): a control character in a column name or a data path is refused at every
+// loader, with a message that names the field and does not quote the text; an error about a
+// data file names its path, line and column but quotes none of it (it may be a symlink to a
+// secret); CSV is read and written as RFC 4180 says, with decimal numbers only, and a front
+// CSV never starts a cell with a formula.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -214,6 +215,54 @@ TEST_F(UntrustedText, HexInfAndNanAreRefusedWithLineAndColumn) {
     ASSERT_FALSE(t.hasValue()) << cell;
     EXPECT_TRUE(contains(t.error(), "n.csv: line 3, column 2: " + std::string(why))) << t.error();
   }
+}
+
+TEST_F(UntrustedText, CsvOutputQuotesFieldsAndNeutralisesFormulas) {
+  EXPECT_EQ(csvField("plain"), "plain");
+  EXPECT_EQ(csvField("a,b"), "\"a,b\"");
+  EXPECT_EQ(csvField("say \"hi\""), "\"say \"\"hi\"\"\"");
+  EXPECT_EQ(csvField("two\nlines"), "\"two\nlines\"");
+  EXPECT_EQ(csvSpreadsheetField("=HYPERLINK(1)"), "'=HYPERLINK(1)");
+  EXPECT_EQ(csvSpreadsheetField("@SUM(A1)"), "'@SUM(A1)");
+  EXPECT_EQ(csvSpreadsheetField("+x*y"), "'+x*y");
+  EXPECT_EQ(csvSpreadsheetField("-x, y"), "\"'-x, y\"");
+  EXPECT_EQ(csvSpreadsheetField("-0.5"), "-0.5");
+  EXPECT_EQ(csvSpreadsheetField("+1e-3"), "+1e-3");
+  EXPECT_EQ(csvSpreadsheetField("x*y - 1"), "x*y - 1");
+  // A front CSV with an output named like a formula and an expression starting with '-'.
+  nlohmann::json front = {{"members",
+                           {{{"index", 0},
+                             {"error", -0.5},
+                             {"cost", 3},
+                             {"formula", "=HYPERLINK(\"http://x\")"},
+                             {"outputs",
+                              {{{"name", "=HYPERLINK(1)"},
+                                {"expression", "-x*y, 2"},
+                                {"float32", {{"rmse", 0.1}}}}}}}}}};
+  ASSERT_TRUE(writeFrontCsv(front, dir / "front.csv").isOk());
+  std::ifstream in(dir / "front.csv");
+  std::string header, row;
+  std::getline(in, header);
+  std::getline(in, row);
+  EXPECT_TRUE(contains(row, "0,'=HYPERLINK(1),-0.5,3,")) << row;
+  EXPECT_TRUE(contains(row, ",\"'-x*y, 2\",\"'=HYPERLINK(\"\"http://x\"\")\"")) << row;
+  // Read back as CSV: the same number of fields as the header.
+  const std::string text = header + "\n" + row + "\n";
+  CsvReader r(text, "front.csv");
+  std::vector<std::string> h, f;
+  ASSERT_TRUE(*r.next(h));
+  ASSERT_TRUE(*r.next(f));
+  EXPECT_EQ(h.size(), f.size());
+  // A table CSV with such names reads back with the same names.
+  Table t;
+  t.input_names = {"a,b", "q\"x"};
+  t.output_names = {"f"};
+  t.inputs = {{1, 2}, {3, 4}};
+  t.outputs = {{5, 6}};
+  ASSERT_TRUE(writeCsv(t, dir / "t.csv").isOk());
+  auto back = readCsv(dir / "t.csv");
+  ASSERT_TRUE(back.hasValue()) << back.error();
+  EXPECT_EQ(back->names, (std::vector<std::string>{"a,b", "q\"x", "f"}));
 }
 
 }  // namespace

@@ -1,4 +1,5 @@
 #include "lgp/io/result.hpp"
+#include "lgp/core/csv.hpp"
 #include "lgp/core/text_check.hpp"
 
 #include "lgp/config/json_reader.hpp"
@@ -199,11 +200,6 @@ nlohmann::json progressToJson(const SearchProgress& p) {
 }
 
 namespace {
-std::string csvQuote(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return out + "\"";
-}
 std::string fmt(double v) {
   if (!std::isfinite(v)) return "inf";
   char buf[32];
@@ -219,14 +215,16 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
   for (const auto& m : front.at("members")) {
     for (const auto& o : m.at("outputs")) {
       const auto& f = o.at("float32");
-      os << m.at("index").get<size_t>() << "," << o.at("name").get<std::string>() << ","
-         << fmt(getNum(m, "error")) << "," << fmt(getNum(m, "cost")) << ","
-         << fmt(getNum(m, "discontinuity")) << "," << fmt(getNum(f, "rmse")) << ","
-         << fmt(getNum(f, "max_abs")) << "," << fmt(getNum(f, "mae")) << ","
-         << fmt(getNum(f, "mean_rel")) << "," << fmt(getNum(f, "r2")) << ","
+      // Spreadsheets open this file: no cell may start a formula (=HYPERLINK(...)).
+      os << m.at("index").get<size_t>() << ","
+         << csvSpreadsheetField(o.at("name").get<std::string>()) << "," << fmt(getNum(m, "error"))
+         << "," << fmt(getNum(m, "cost")) << "," << fmt(getNum(m, "discontinuity")) << ","
+         << fmt(getNum(f, "rmse")) << "," << fmt(getNum(f, "max_abs")) << ","
+         << fmt(getNum(f, "mae")) << "," << fmt(getNum(f, "mean_rel")) << ","
+         << fmt(getNum(f, "r2")) << ","
          << fmt(m.contains("cancellation") ? getNum(m["cancellation"], "bits_lost") : INFINITY)
-         << "," << csvQuote(o.at("expression").get<std::string>()) << ","
-         << csvQuote(m.value("formula", "")) << "\n";
+         << "," << csvSpreadsheetField(o.at("expression").get<std::string>()) << ","
+         << csvSpreadsheetField(m.value("formula", "")) << "\n";
     }
   }
   const auto tmp = path.string() + ".tmp";
