@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <optional>
+#include <set>
 
 #include "lgp/eval/semantics.hpp"
 
@@ -155,8 +156,10 @@ struct Statement {
 
 class Parser {
  public:
-  Parser(Dag& d, const ParseOptions& o, std::map<std::string, int>& scope)
-      : d_(d), o_(o), scope_(scope) {}
+  // `unread`: the outputs assigned and not read since, shared by all texts of a formula.
+  Parser(Dag& d, const ParseOptions& o, std::map<std::string, int>& scope,
+         std::set<std::string>& unread)
+      : d_(d), o_(o), scope_(scope), unread_(unread) {}
 
   Expected<std::vector<Statement>> parse(const std::string& text, const std::string& where) {
     where_ = where;
@@ -227,6 +230,14 @@ class Parser {
       p_ = q + 2;
       if (isInput(name)) return fail("cannot assign to the input '" + name + "'");
       if (!expr(st.value)) return false;
+      // A second assignment to an output before its value is read would silently drop the
+      // first (`B = mu; B = r`); reading it in between (a swap) is fine.
+      if (isOutput(name) && !unread_.insert(name).second) {
+        p_ = q;  // the column of the name
+        return fail("the output '" + name +
+                    "' is assigned again before its value is used; the first assignment "
+                    "would be dropped");
+      }
       if (!st.value.scalar()) return fail("a vector or bare comparison cannot be assigned");
       st.assigned = name;
       scope_[name] = st.value.id;
@@ -236,6 +247,10 @@ class Parser {
     if (!expr(st.value)) return false;
     if (!st.value.cmp.empty()) return fail("a comparison must be followed by '? a : b'");
     return true;
+  }
+
+  bool isOutput(const std::string& n) const {
+    return std::find(o_.output_names.begin(), o_.output_names.end(), n) != o_.output_names.end();
   }
 
   bool isInput(const std::string& n) const {
@@ -403,7 +418,10 @@ class Parser {
   // here; other unknown names give nullopt.
   std::optional<int> lookup(const std::string& name, bool& bad_index) {
     bad_index = false;
-    if (auto it = scope_.find(name); it != scope_.end()) return it->second;
+    if (auto it = scope_.find(name); it != scope_.end()) {
+      unread_.erase(name);
+      return it->second;
+    }
     std::string n = name;
     if (auto it = o_.aliases.find(name); it != o_.aliases.end()) n = it->second;
     for (size_t i = 0; i < o_.input_names.size(); ++i)
@@ -424,6 +442,9 @@ class Parser {
   bool primary(PExpr& out) {
     const Token tk = t_[p_];
     if (tk.kind == Tok::Num) {
+      if (!std::isfinite(static_cast<float>(tk.value)))
+        return fail("the constant " + tk.text +
+                    " is outside the range of float (magnitude at most 3.4028235e38)");
       ++p_;
       out = val(d_.constant(static_cast<float>(tk.value)));
       return true;
@@ -531,6 +552,7 @@ class Parser {
   Dag& d_;
   const ParseOptions& o_;
   std::map<std::string, int>& scope_;
+  std::set<std::string>& unread_;
   std::vector<Token> t_;
   size_t p_ = 0;
   int depth_ = 0;
@@ -568,9 +590,10 @@ Expected<ParsedFormula> parseFormula(const std::vector<std::string>& texts,
   Dag& d = pf.dag;
   d.num_inputs = static_cast<int>(opts.input_names.size());
   std::map<std::string, int> scope;
+  std::set<std::string> unread;
   std::vector<std::vector<Statement>> all;
   for (size_t i = 0; i < texts.size(); ++i) {
-    Parser p(d, opts, scope);
+    Parser p(d, opts, scope, unread);
     auto st = p.parse(texts[i], texts.size() == 1 ? "expr" : "expr[" + std::to_string(i) + "]");
     if (!st) return st.status();
     all.push_back(std::move(*st));
@@ -579,6 +602,17 @@ Expected<ParsedFormula> parseFormula(const std::vector<std::string>& texts,
     return std::find(opts.output_names.begin(), opts.output_names.end(), n) !=
            opts.output_names.end();
   };
+  // An expression that ends by assigning a name that is no output (`C = mu` on a table
+  // whose output is B) names an output the table does not have.
+  for (size_t i = 0; i < all.size(); ++i) {
+    const std::string& last = all[i].back().assigned;
+    if (!last.empty() && !isOutputName(last))
+      return Status::error(
+          (texts.size() == 1 ? std::string("expr") : "expr[" + std::to_string(i) + "]") +
+          ": its last statement assigns '" + last +
+          "', which is not an output of the table (outputs: " + joinNames(opts.output_names) +
+          "); end with an output's assignment or a bare expression");
+  }
   std::vector<int> outs(k, -1);
   if (texts.size() == k) {
     bool by_name = true;

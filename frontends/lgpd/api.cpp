@@ -74,8 +74,21 @@ std::string mediaType(const std::string& content_type) {
 }
 
 bool isJsonMediaType(const std::string& type) {
-  return type.empty() || type == "application/json" ||
+  return type == "application/json" ||
          (type.size() > 5 && type.compare(type.size() - 5, 5, "+json") == 0);
+}
+
+// The credentials of an "Authorization: Bearer <token>" header; the scheme is
+// case-insensitive (RFC 7235) and one or more spaces follow it. Empty for another scheme.
+std::string_view bearerCredentials(std::string_view auth) {
+  constexpr std::string_view kScheme = "bearer";
+  if (auth.size() <= kScheme.size() || auth[kScheme.size()] != ' ') return {};
+  for (size_t i = 0; i < kScheme.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(auth[i])) != kScheme[i]) return {};
+  auth.remove_prefix(kScheme.size());
+  while (!auth.empty() && auth.front() == ' ') auth.remove_prefix(1);
+  while (!auth.empty() && (auth.back() == ' ' || auth.back() == '\t')) auth.remove_suffix(1);
+  return auth;
 }
 
 // "/search/population: must be ..." -> "/search/population".
@@ -160,16 +173,20 @@ class Api {
     max_body_ = cfg.max_body_bytes;
     svr.set_payload_max_length(cfg.max_body_bytes);
     token_ = cfg.token;
+    allowed_hosts_ = {"localhost", "127.0.0.1", "[::1]"};
+    if (auto addr = parseListen(cfg.listen); addr && addr->host != "0.0.0.0" && addr->host != "::")
+      allowed_hosts_.push_back(addr->host.find(':') != std::string::npos ? "[" + addr->host + "]"
+                                                                         : addr->host);
+    allowed_hosts_.insert(allowed_hosts_.end(), cfg.allowed_hosts.begin(), cfg.allowed_hosts.end());
+    allowed_origins_ = cfg.allowed_origins;
 
     // Runs after the request line and headers are read and before any of the body is.
     svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       if (checkFraming(req, res)) return httplib::Server::HandlerResponse::Handled;
+      if (checkSite(req, res)) return httplib::Server::HandlerResponse::Handled;
       if (token_.empty() || req.path.rfind("/api/", 0) != 0 || req.path == "/api/v1/health")
         return httplib::Server::HandlerResponse::Unhandled;
-      std::string auth = req.get_header_value("Authorization");
-      constexpr std::string_view kBearer = "Bearer ";
-      if (auth.size() > kBearer.size() && auth.compare(0, kBearer.size(), kBearer) == 0 &&
-          constantTimeEqual(std::string_view(auth).substr(kBearer.size()), token_))
+      if (constantTimeEqual(bearerCredentials(req.get_header_value("Authorization")), token_))
         return httplib::Server::HandlerResponse::Unhandled;
       res.set_header("WWW-Authenticate", "Bearer");
       if (hasBody(req))
@@ -220,11 +237,16 @@ class Api {
                           const httplib::ContentReader& reader) {
       if (req.is_multipart_form_data())
         return sendErrorAndClose(res, 415, "multipart bodies are not accepted");
-      const bool submit = isApi(req.path) && apiRest(req.path) == "runs";
-      if (submit && !isJsonMediaType(mediaType(req.get_header_value("Content-Type"))))
-        return sendErrorAndClose(res, 415,
-                                 "Content-Type must be application/json (got '" +
-                                     req.get_header_value("Content-Type") + "')");
+      // Every POST, with a body or not, names a JSON type: a page on another site can send a
+      // POST without a preflight only as text/plain, a form or multipart, never JSON.
+      if (!isJsonMediaType(mediaType(req.get_header_value("Content-Type"))))
+        return sendErrorAndClose(
+            res, 415,
+            req.has_header("Content-Type")
+                ? "Content-Type must be application/json (got '" +
+                      req.get_header_value("Content-Type").substr(0, 100) + "')"
+                : "Content-Type: application/json is required on every POST, also one "
+                  "without a body");
       std::string body;
       if (!readBody(req, reader, res, body)) return;
       if (!isApi(req.path)) return sendError(res, 404, "no such route");
@@ -256,6 +278,51 @@ class Api {
   static bool hasBody(const httplib::Request& req) {
     return req.has_header("Transfer-Encoding") ||
            (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
+  }
+
+  // Who the request is from, checked before the token: the Host must name this daemon (a
+  // DNS-rebinding page sends its own name), and a POST or DELETE that carries an Origin must
+  // come from the daemon's own origin or one in allowed_origins. True when answered (403).
+  bool checkSite(const httplib::Request& req, httplib::Response& res) {
+    const size_t hosts = req.get_header_value_count("Host");
+    if (hosts != 1) {
+      sendErrorAndClose(res, 400,
+                        hosts == 0 ? "a Host header is required" : "more than one Host header");
+      return true;
+    }
+    const std::string host_value = req.get_header_value("Host");
+    const auto host = parseHostHeader(host_value);
+    const bool any =
+        std::find(allowed_hosts_.begin(), allowed_hosts_.end(), "*") != allowed_hosts_.end();
+    if (!host || (!any && std::find(allowed_hosts_.begin(), allowed_hosts_.end(), host->host) ==
+                              allowed_hosts_.end())) {
+      sendErrorAndClose(res, 403,
+                        "Host header '" + host_value.substr(0, 100) +
+                            "' does not name this daemon (accepted: 127.0.0.1, localhost, "
+                            "[::1], the listen address and allowed_hosts)");
+      return true;
+    }
+    if (req.method != "POST" && req.method != "DELETE") return false;
+    const size_t origins = req.get_header_value_count("Origin");
+    if (origins == 0) return false;
+    const std::string origin_value = origins == 1 ? req.get_header_value("Origin") : "";
+    const auto origin = parseOrigin(origin_value);
+    const auto defaultPort = [](const std::string& scheme, int port) {
+      return port >= 0 ? port : scheme == "https" ? 443 : 80;
+    };
+    const bool same = origin && origin->authority.host == host->host &&
+                      defaultPort(origin->scheme, origin->authority.port) ==
+                          defaultPort(origin->scheme, host->port);
+    const bool listed = origin && std::find(allowed_origins_.begin(), allowed_origins_.end(),
+                                            lower(origin_value)) != allowed_origins_.end();
+    if (!same && !listed) {
+      sendErrorAndClose(res, 403,
+                        "a " + req.method + " from Origin '" + origin_value.substr(0, 100) +
+                            "' is refused: only the daemon's own origin and allowed_origins "
+                            "may change runs");
+      return true;
+    }
+    return false;
   }
 
   // How the body is framed, checked before any of it is read. True when the request has
@@ -651,6 +718,8 @@ class Api {
   Store& store_;
   JobManager& jobs_;
   std::string token_;
+  std::vector<std::string> allowed_hosts_;
+  std::vector<std::string> allowed_origins_;
   size_t max_body_ = 0;
 };
 

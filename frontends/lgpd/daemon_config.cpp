@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <tuple>
 
@@ -47,6 +48,26 @@ Status DaemonConfig::validate() const {
     return Status::error("/keep_alive_max_requests: must be in [1, 100000]");
   auto addr = parseListen(listen);
   if (!addr) return Status::error("/listen: " + addr.error());
+  for (size_t n = 0; n < allowed_hosts.size(); ++n) {
+    const std::string& h = allowed_hosts[n];
+    auto hp = parseHostHeader(h);
+    if (h != "*" && (!hp || hp->port != -1 || hp->host != h))
+      return Status::error("/allowed_hosts/" + std::to_string(n) +
+                           ": must be a lower-case host name or IP address without a port "
+                           "(IPv6 in brackets), or \"*\" (got '" +
+                           h + "')");
+  }
+  for (size_t n = 0; n < allowed_origins.size(); ++n) {
+    const std::string& o = allowed_origins[n];
+    auto parsed = parseOrigin(o);
+    if (!parsed ||
+        o != parsed->scheme + "://" + parsed->authority.host +
+                 (parsed->authority.port >= 0 ? ":" + std::to_string(parsed->authority.port) : ""))
+      return Status::error("/allowed_origins/" + std::to_string(n) +
+                           ": must be a lower-case origin such as \"http://name:8080\" "
+                           "(scheme http or https, no path; got '" +
+                           o + "')");
+  }
   if (auto s = checkToken(token); !s) return s;
   if (!isLoopbackHost(addr->host) && token.empty())
     return Status::error("/token: a non-loopback listen address (" + addr->host +
@@ -107,6 +128,66 @@ bool isLoopbackHost(const std::string& host) {
     return std::memcmp(&v6, &kLoop, sizeof v6) == 0;
   }
   return false;
+}
+
+namespace {
+
+bool isHostChar(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '.' || c == '_';
+}
+
+std::string toLower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+}  // namespace
+
+std::optional<HostPort> parseHostHeader(const std::string& value) {
+  HostPort hp;
+  std::string port;
+  if (!value.empty() && value.front() == '[') {
+    const auto close = value.find(']');
+    if (close == std::string::npos) return std::nullopt;
+    const std::string v6 = value.substr(1, close - 1);
+    in6_addr a{};
+    if (inet_pton(AF_INET6, v6.c_str(), &a) != 1) return std::nullopt;
+    hp.host = toLower(value.substr(0, close + 1));
+    if (close + 1 < value.size()) {
+      if (value[close + 1] != ':') return std::nullopt;
+      port = value.substr(close + 2);
+      if (port.empty()) return std::nullopt;
+    }
+  } else {
+    const auto colon = value.find(':');
+    hp.host = toLower(value.substr(0, colon));
+    if (colon != std::string::npos) {
+      port = value.substr(colon + 1);
+      if (port.empty()) return std::nullopt;
+    }
+    if (hp.host.empty() || hp.host.size() > 253 ||
+        !std::all_of(hp.host.begin(), hp.host.end(), isHostChar))
+      return std::nullopt;
+  }
+  if (!port.empty()) {
+    if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos)
+      return std::nullopt;
+    hp.port = std::stoi(port);
+    if (hp.port > 65535) return std::nullopt;
+  }
+  return hp;
+}
+
+std::optional<Origin> parseOrigin(const std::string& value) {
+  const auto sep = value.find("://");
+  if (sep == std::string::npos) return std::nullopt;
+  Origin o;
+  o.scheme = toLower(value.substr(0, sep));
+  if (o.scheme != "http" && o.scheme != "https") return std::nullopt;
+  auto hp = parseHostHeader(value.substr(sep + 3));
+  if (!hp) return std::nullopt;
+  o.authority = *hp;
+  return o;
 }
 
 namespace {
@@ -187,10 +268,26 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
   if (!j.is_object())
     return Status::error(lgp::jsonError("", "the daemon config must be a JSON object"));
   lgp::JsonObjectReader keys(j, "");
-  keys.allow({"data_dir", "listen", "max_jobs", "checkpoint_interval_s", "progress_interval_s",
-              "front_interval_s", "token", "max_body_bytes", "data_base_dir", "allowed_data_dirs",
-              "http_threads", "max_connections_per_client", "read_timeout_s", "request_timeout_s",
-              "write_timeout_s", "keep_alive_timeout_s", "keep_alive_max_requests", "mpi"});
+  keys.allow({"data_dir",
+              "listen",
+              "max_jobs",
+              "checkpoint_interval_s",
+              "progress_interval_s",
+              "front_interval_s",
+              "token",
+              "max_body_bytes",
+              "data_base_dir",
+              "allowed_data_dirs",
+              "http_threads",
+              "max_connections_per_client",
+              "read_timeout_s",
+              "request_timeout_s",
+              "write_timeout_s",
+              "keep_alive_timeout_s",
+              "keep_alive_max_requests",
+              "allowed_hosts",
+              "allowed_origins",
+              "mpi"});
   if (auto k = keys.unknownKey()) return Status::error(lgp::jsonError(*k, "unknown key"));
   Status s;
   std::string str;
@@ -237,6 +334,12 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
           if (r) cfg.allowed_data_dirs.assign(dirs.begin(), dirs.end());
           return r;
         })))
+    return s;
+  if (!(s = field(j, "allowed_hosts",
+                  [&](auto& v, auto p) { return stringArray(v, p, cfg.allowed_hosts); })))
+    return s;
+  if (!(s = field(j, "allowed_origins",
+                  [&](auto& v, auto p) { return stringArray(v, p, cfg.allowed_origins); })))
     return s;
   if (!(s = field(j, "http_threads", [&](auto& v, auto p) {
           auto r = integer(v, p, 2, i);

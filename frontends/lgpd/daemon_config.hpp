@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,14 @@ struct DaemonConfig {
   double write_timeout_s = 60;        // a whole response must leave
   double keep_alive_timeout_s = 5;    // an idle kept-alive connection is closed
   int keep_alive_max_requests = 100;  // requests per connection
+  // Host header names accepted besides 127.0.0.1, localhost, [::1] and the listen address
+  // (lower case, no port; IPv6 in brackets; "*" accepts any). Refusing the rest stops DNS
+  // rebinding: a page served from evil.example that resolves to 127.0.0.1 sends
+  // "Host: evil.example".
+  std::vector<std::string> allowed_hosts;
+  // Origins ("http://name:port") whose POST and DELETE requests are accepted besides the
+  // daemon's own (an Origin naming the same host and port as the Host header).
+  std::vector<std::string> allowed_origins;
   MpiDaemonConfig mpi;
 
   // max_connections_per_client with the default filled in.
@@ -64,6 +73,21 @@ struct ListenAddress {
 lgp::Expected<ListenAddress> parseListen(const std::string& s);
 // True for 127.0.0.0/8, ::1 and "localhost".
 bool isLoopbackHost(const std::string& host);
+
+// A Host header value split into a lower-case host (IPv6 in brackets) and its port (-1 when
+// none); nullopt when it is not host[:port].
+struct HostPort {
+  std::string host;
+  int port = -1;
+};
+std::optional<HostPort> parseHostHeader(const std::string& value);
+// "http://name[:port]" or "https://..." (no path) split into scheme and authority; nullopt
+// otherwise (including "null").
+struct Origin {
+  std::string scheme;
+  HostPort authority;
+};
+std::optional<Origin> parseOrigin(const std::string& value);
 
 // A bearer token must have at least this many characters other than spaces.
 inline constexpr size_t kMinTokenCharacters = 16;

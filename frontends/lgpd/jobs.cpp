@@ -17,6 +17,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "lgp/core/text_check.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
 #include "submit_checks.hpp"
@@ -177,6 +178,8 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
       for (const char* key : {"path", "scene", "cache_dir"}) {
         auto p = data->find(key);
         if (p == data->end() || !p->is_string() || p->get<std::string>().empty()) continue;
+        if (auto why = lgp::controlCharacterReason(p->get<std::string>()); !why.empty())
+          return Status::error(std::string("/data/") + key + ": " + why);
         std::string abs = absolutePath(p->get<std::string>(), cfg_.data_base_dir);
         if (std::string(key) != "cache_dir") {
           if (auto s = checkDataPath(abs); !s)

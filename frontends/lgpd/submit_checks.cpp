@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <set>
 
 #include "files.hpp"
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/csv.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/search/search.hpp"
 #include "table_source.hpp"
@@ -41,45 +41,25 @@ Expected<TableColumns> namesOf(lgp::RawTable raw, const lgp::RunConfig& cfg,
   return TableColumns{t->input_names, t->output_names, true};
 }
 
-std::string trimCell(std::string_view s) {
-  // As the CSV reader trims: spaces, tabs, CR and double quotes at both ends.
-  auto strip = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '"'; };
-  size_t b = 0, e = s.size();
-  while (b < e && strip(s[b])) ++b;
-  while (e > b && strip(s[e - 1])) --e;
-  return std::string(s.substr(b, e - b));
-}
-
-// The header row of a CSV (the first line that is neither blank nor a '#' comment).
+// The header row of a CSV (the first record that is neither blank nor a '#' comment), read
+// as the table reader reads it.
 Expected<std::vector<std::string>> csvHeader(const std::string& text, const std::string& f) {
-  std::string_view rest(text);
-  if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);  // UTF-8 byte order mark
-  while (!rest.empty()) {
-    const size_t nl = rest.find('\n');
-    if (nl == std::string_view::npos && text.size() >= kCsvHeaderBytes)
-      return Status::error(f + ": no header row within the first " +
-                           std::to_string(kCsvHeaderBytes) + " bytes");
-    std::string_view line = rest.substr(0, nl);
-    rest.remove_prefix(nl == std::string_view::npos ? rest.size() : nl + 1);
-    const std::string t = trimCell(line);
-    if (t.empty() || t[0] == '#') continue;
-    std::vector<std::string> names;
-    std::set<std::string> seen;
-    size_t start = 0;
-    for (size_t i = 0; i <= line.size(); ++i) {
-      if (i < line.size() && line[i] != ',') continue;
-      names.push_back(trimCell(line.substr(start, i - start)));
-      start = i + 1;
-      const size_t c = names.size();
-      if (names.back().empty())
-        return Status::error(f + ": header, column " + std::to_string(c) + ": empty name");
-      if (!seen.insert(names.back()).second)
-        return Status::error(f + ": header, column " + std::to_string(c) + " ('" + names.back() +
-                             "'): duplicate name");
-    }
-    return names;
+  std::string_view body(text);
+  if (body.substr(0, 3) == "\xEF\xBB\xBF") body.remove_prefix(3);  // UTF-8 byte order mark
+  lgp::CsvReader reader(body, f);
+  std::vector<std::string> names;
+  auto got = reader.next(names);
+  if (!got) {
+    // A quoted field still open at the end of what was read may close further on.
+    if (text.size() < kCsvHeaderBytes) return got.status();
+  } else if (!*got) {
+    return Status::error(f + ": empty file, expected a header row");
   }
-  return Status::error(f + ": empty file, expected a header row");
+  if (!got || (!reader.terminated() && text.size() >= kCsvHeaderBytes))
+    return Status::error(f + ": no header row within the first " + std::to_string(kCsvHeaderBytes) +
+                         " bytes");
+  if (auto s = lgp::checkCsvHeader(names, f, reader.line()); !s) return s;
+  return names;
 }
 
 }  // namespace

@@ -171,7 +171,7 @@ TEST_F(TableFiles, CsvErrorsNameFileRowAndColumn) {
   auto p = write("bad.csv", "x,y\n1,2\n3,abc\n");
   auto raw = readCsv(p);
   ASSERT_FALSE(raw);
-  EXPECT_NE(raw.error().find(p.string() + ": line 3, column 2 ('y'): 'abc' is not a finite number"),
+  EXPECT_NE(raw.error().find(p.string() + ": line 3, column 2: not a decimal number"),
             std::string::npos)
       << raw.error();
   raw = readCsv(write("short.csv", "x,y\n1,2\n3\n"));
@@ -182,7 +182,7 @@ TEST_F(TableFiles, CsvErrorsNameFileRowAndColumn) {
   EXPECT_NE(raw.error().find("column 2"), std::string::npos);
   raw = readCsv(write("dup.csv", "x,x\n1,2\n"));
   ASSERT_FALSE(raw);
-  EXPECT_NE(raw.error().find("duplicate"), std::string::npos);
+  EXPECT_NE(raw.error().find("column 2: the same name as column 1"), std::string::npos);
   raw = readCsv(dir / "missing.csv");
   ASSERT_FALSE(raw);
   EXPECT_NE(raw.error().find("cannot open"), std::string::npos);

@@ -134,12 +134,11 @@ TEST_F(Hardening, SubnormalsAreFiniteAndOverflowIsNamed) {
   EXPECT_EQ(zero->columns[2][2], 0.0);
   auto big = readCsv(write("big.csv", csvWith("1e999")));
   ASSERT_FALSE(big.hasValue());
-  EXPECT_TRUE(
-      contains(big.error(), "line 4, column 3 ('f'): '1e999' is not within the range of double"))
+  EXPECT_TRUE(contains(big.error(), "line 4, column 3: outside the range of double"))
       << big.error();
   auto nan = readCsv(write("nan.csv", csvWith("nan")));
   ASSERT_FALSE(nan.hasValue());
-  EXPECT_TRUE(contains(nan.error(), "'nan' is not a finite number")) << nan.error();
+  EXPECT_TRUE(contains(nan.error(), "line 4, column 3: inf or nan")) << nan.error();
 }
 
 TEST_F(Hardening, ValuesBeyondFloat32AreRefusedWithColumnAndRow) {

@@ -163,29 +163,31 @@ TEST_F(Hardening, FramingAndContentTypeGetTheirCodes) {
   // Content-Length: -5 and other lengths that are not a number of bytes.
   for (const char* len : {"-5", "abc", "1e3", "99999999999999999999999"}) {
     std::string r = rawRequest(
-        d.port(), std::string("POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n") +
+        d.port(), std::string("POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n") +
                       "Content-Type: application/json\r\nContent-Length: " + len + "\r\n\r\n{}");
     EXPECT_EQ(statusOf(r), 400) << len << ": " << r;
   }
   // Over the limit by its Content-Length: 413 before the body is read.
   std::string r = rawRequest(d.port(),
-                             "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: "
+                             "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
                              "application/json\r\nContent-Length: 300000000\r\n\r\n{");
   EXPECT_EQ(statusOf(r), 413) << r;
   // No length at all.
-  r = rawRequest(d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\n\r\n");
+  r = rawRequest(d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
   EXPECT_EQ(statusOf(r), 411) << r;
   // Both framings, an unknown transfer coding, a body on a GET, an unsupported method.
   r = rawRequest(d.port(),
-                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n"
+                 "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 2\r\n"
                  "Transfer-Encoding: chunked\r\n\r\n{}");
   EXPECT_EQ(statusOf(r), 400) << r;
-  r = rawRequest(d.port(),
-                 "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: gzip\r\n\r\n");
+  r = rawRequest(
+      d.port(), "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: gzip\r\n\r\n");
   EXPECT_EQ(statusOf(r), 501) << r;
-  r = rawRequest(d.port(), "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 3\r\n\r\nabc");
+  r = rawRequest(d.port(),
+                 "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 3\r\n\r\nabc");
   EXPECT_EQ(statusOf(r), 400) << r;
-  r = rawRequest(d.port(), "PUT /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n");
+  r = rawRequest(d.port(),
+                 "PUT /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\n\r\n");
   EXPECT_EQ(statusOf(r), 405) << r;
   // A body over 8 KB without a JSON content type (what `curl -d` sends): 415, not 413.
   std::string padded = cfg;
@@ -213,9 +215,10 @@ TEST_F(Hardening, ChunkedBodyOverTheLimitIsCutOff) {
   // passed and stops reading; the client could send only a bounded amount.
   int fd = connectFrom("127.0.0.1", daemon_->port());
   ASSERT_GE(fd, 0);
-  ASSERT_TRUE(sendAll(fd,
-                      "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-                      "Transfer-Encoding: chunked\r\n\r\n"));
+  ASSERT_TRUE(
+      sendAll(fd,
+              "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+              "Transfer-Encoding: chunked\r\n\r\n"));
   const std::string chunk = "10000\r\n" + std::string(0x10000, ' ') + "\r\n";
   size_t sent = 0;
   std::string response;
@@ -313,6 +316,50 @@ TEST_F(Hardening, DataFileMustBeARegularReadableFile) {
   EXPECT_NE(rb.value("error", "").find("FIFO"), std::string::npos) << rb.dump();
 }
 
+TEST_F(Hardening, ControlCharactersInNamesAndPathsGet400) {
+  // Issue 21: such a name reached the comments of /front/{k}/code as live code.
+  const std::string inject = "mu\n#include </etc/shadow>\nint pwn(){return 1;}\n//";
+  json inline_cfg = runConfig(table_, 5);
+  inline_cfg["data"].erase("path");
+  inline_cfg["data"]["table"] = {{"columns",
+                                  {{"x", {0.1, 0.2, 0.3, 0.4}},
+                                   {"y", {1, 2, 3, 4}},
+                                   {"f", {1, 0, 1, 0}},
+                                   {inject, {0, 0, 0, 0}}}}};
+  json j = refused(inline_cfg.dump(), 400, "an inline table column name with newlines");
+  EXPECT_NE(j.value("error", "").find("/data/table: /columns"), std::string::npos) << j.dump();
+  EXPECT_NE(j.value("error", "").find("control character"), std::string::npos) << j.dump();
+  EXPECT_EQ(j.value("error", "").find("pwn"), std::string::npos) << j.dump();
+  json named = runConfig(table_, 5);
+  named["data"]["inputs"] = {"x", inject};
+  j = refused(named.dump(), 400, "an input name with newlines");
+  EXPECT_EQ(j.value("field", ""), "/data/inputs/1") << j.dump();
+  json path = runConfig(table_, 5);
+  path["data"]["path"] = table_.string() + "\nint pwn();";
+  j = refused(path.dump(), 400, "a data path with a newline");
+  EXPECT_EQ(j.value("field", ""), "/data/path") << j.dump();
+  EXPECT_EQ(runCount(), 0u);
+}
+
+TEST_F(Hardening, DataFileErrorsQuoteNothingOfTheFile) {
+  // Issue 21: a symlink to /etc/shadow as the data path got a 400 that quoted its lines, and
+  // a non-CSV file leaked its first character through the JSON parser's message.
+  const fs::path secret = tmp_->path() / "secret.txt";
+  std::ofstream(secret) << "root:SECRET-7f3a9c:19000:0:99999:7:::\nbin:SECRET-b2:19000::::::\n";
+  for (const char* name : {"link.csv", "link.json"}) {
+    const fs::path link = tmp_->path() / name;
+    fs::create_symlink(secret, link);
+    json j = refused(runConfig(link, 5).dump(), 400, name);
+    const std::string e = j.value("error", "");
+    EXPECT_NE(e.find(link.string()), std::string::npos) << e;
+    EXPECT_NE(e.find("line "), std::string::npos) << e;
+    EXPECT_NE(e.find("column "), std::string::npos) << e;
+    EXPECT_EQ(e.find("SECRET"), std::string::npos) << e;
+    EXPECT_EQ(e.find("root"), std::string::npos) << e;
+  }
+  EXPECT_EQ(runCount(), 0u);
+}
+
 TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
 #ifndef LGPD_TEST_HAVE_DATASETS
   GTEST_SKIP() << "lgpd without the datasets library";
@@ -362,7 +409,7 @@ class SlowClients {
     for (int i = 0; i < n; ++i) {
       int fd = connectFrom(src, port);
       if (fd < 0) continue;
-      sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\nX-Slow: ");
+      sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ");
       fds_.push_back(fd);
     }
     thread_ = std::thread([this] {
@@ -406,7 +453,7 @@ TEST_F(Hardening, SlowClientsDoNotStopTheApi) {
   sleepMs(300);
   int fd = connectFrom("127.0.0.3", d.port());
   ASSERT_GE(fd, 0);
-  sendAll(fd, "GET /api/v1/health HTTP/1.1\r\nHost: x\r\n\r\n");
+  sendAll(fd, "GET /api/v1/health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
   std::string r = readAll(fd, 5);
   ::close(fd);
   EXPECT_EQ(statusOf(r), 429) << r;
@@ -423,7 +470,7 @@ TEST(HardeningServe, SlowRequestIsDroppedAtItsDeadline) {
   // 2 s: the connection is closed within a few seconds.
   int fd = connectFrom("127.0.0.1", d.port());
   ASSERT_GE(fd, 0);
-  sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\n");
+  sendAll(fd, "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n");
   bool closed = false;
   std::string answer;
   const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);

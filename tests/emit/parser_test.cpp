@@ -151,6 +151,38 @@ TEST(EmitParser, ErrorsSayWhatAndWhere) {
   EXPECT_NE(parseError({"1.5.5"}, xy()).find("malformed number"), std::string::npos);
 }
 
+TEST(EmitParser, UnknownOutputsRepeatedOutputsAndOutOfRangeConstantsAreNamed) {
+  // Issue 21: `lgp score -e 'C = mu'` on a table whose output is B was scored as B = mu,
+  // 'B = mu; B = r' silently dropped the first assignment, and 1e39 gave "internal error".
+  const auto b = xy({"B"});
+  EXPECT_NE(parseError({"C = x"}, b)
+                .find("assigns 'C', which is not an output of the table "
+                      "(outputs: B)"),
+            std::string::npos)
+      << parseError({"C = x"}, b);
+  EXPECT_NE(parseError({"B = x; B = y"}, b)
+                .find("the output 'B' is assigned again before its "
+                      "value is used"),
+            std::string::npos)
+      << parseError({"B = x; B = y"}, b);
+  const auto ab = xy({"A", "B"});
+  EXPECT_NE(parseError({"A = x", "A = y"}, ab).find("the output 'A' is assigned again"),
+            std::string::npos);
+  // Read in between (a swap): both assignments count.
+  EXPECT_EQ(infixOf({"A = x; B = y; t = A; A = B; B = t"}, ab),
+            (std::vector<std::string>{"y", "x"}));
+  EXPECT_NE(parseError({"A = x; B = y; C = x"}, ab).find("assigns 'C'"), std::string::npos);
+  for (const char* c : {"1e39", "-1e39 + x", "1e400"}) {
+    const std::string e = parseError({c}, xy());
+    EXPECT_NE(e.find("is outside the range of float"), std::string::npos) << c << ": " << e;
+    EXPECT_EQ(e.find("internal error"), std::string::npos) << c << ": " << e;
+  }
+  EXPECT_NE(parseError({"1e39"}, xy()).find("the constant 1e39"), std::string::npos);
+  // Still accepted: temporaries, an output assigned last, the largest float.
+  EXPECT_EQ(infixOf({"t = x * y; B = t + 1"}, b).size(), 1u);
+  EXPECT_EQ(infixOf({"B = 3.4028234e38 * x"}, b).size(), 1u);
+}
+
 TEST(EmitParser, LeafOutputsAndLongFormulasBecomeValidPrograms) {
   auto pf = parseFormula({"x", "2.5"}, xy({"A", "B"}));
   ASSERT_TRUE(pf.hasValue()) << pf.error();

@@ -771,12 +771,12 @@ TEST_F(FuzzDaemon, RawRequests) {
   Mutator m(808);
   const std::string body = seedConfig(table_).dump();
   const std::vector<std::string> seeds = {
-      "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: "
+      "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
       "application/json\r\nContent-Length: " +
           std::to_string(body.size()) + "\r\n\r\n" + body,
-      "GET /api/v1/runs HTTP/1.1\r\nHost: x\r\n\r\n",
-      "GET /api/v1/runs/0123456789abcdef/front HTTP/1.1\r\nHost: x\r\n\r\n",
-      "DELETE /api/v1/runs/zz HTTP/1.1\r\nHost: x\r\n\r\n"};
+      "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n",
+      "GET /api/v1/runs/0123456789abcdef/front HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n",
+      "DELETE /api/v1/runs/zz HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"};
   for (int i = 0, n = scaled(600); i < n; ++i) {
     std::string req = seeds[m.below(seeds.size())];
     m.mutateText(req);
@@ -804,12 +804,12 @@ TEST_F(FuzzDaemon, RawRequests) {
   const std::string big(9000, ' ');
   const std::vector<std::pair<std::string, std::string>> framing = {
       {"negative length",
-       "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+       "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
        "Content-Length: -5\r\n\r\n{}"},
       {"no content type",
-       "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Length: 9000\r\n\r\n" + big},
+       "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 9000\r\n\r\n" + big},
       {"chunked over the limit",
-       "POST /api/v1/runs HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+       "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
        "Transfer-Encoding: chunked\r\n\r\n" +
            repeat("4000\r\n" + std::string(0x4000, ' ') + "\r\n", 80) + "0\r\n\r\n"},
   };

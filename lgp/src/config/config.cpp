@@ -9,6 +9,7 @@
 
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/core/text_check.hpp"
 
 namespace lgp {
 
@@ -178,6 +179,21 @@ void parseData(const nlohmann::json& j, DataConfig& d) {
     }
   }
   o.finish();
+  // These texts reach messages and the comments of emitted code.
+  for (const auto& [key, text] : {std::pair<const char*, const std::string*>{"path", &d.path},
+                                  {"scene", &d.scene},
+                                  {"weights", &d.weights},
+                                  {"cache_dir", &d.cache_dir}})
+    if (auto why = controlCharacterReason(*text); !why.empty()) fail(o.path(key), why);
+  for (const auto& [key, names] :
+       {std::pair<const char*, const std::vector<std::string>*>{"inputs", &d.inputs},
+        {"outputs", &d.outputs}})
+    for (size_t i = 0; i < names->size(); ++i)
+      if (auto why = controlCharacterReason((*names)[i]); !why.empty())
+        fail(jsonPath(o.path(key), i), why);
+  for (const auto& [name, tr] : d.transforms)
+    if (auto why = controlCharacterReason(name); !why.empty())
+      fail(o.path("transforms"), "an output name " + why);
   if (d.path.empty() == d.scene.empty())
     fail("/data", "exactly one of \"path\" and \"scene\" is required");
 }

@@ -86,6 +86,19 @@ std::optional<size_t> firstTooDeep(std::string_view text, size_t max_depth) {
   return std::nullopt;
 }
 
+// nlohmann's message without its "[json.exception.parse_error.101] " tag and without the
+// "; last read: '...'" that quotes the text: the text may be any file a path points at.
+// What stays names the line and column ("parse error at line 1, column 1: syntax error
+// while parsing value - invalid literal").
+std::string withoutContent(std::string msg) {
+  if (!msg.empty() && msg[0] == '[') {
+    const auto close = msg.find("] ");
+    if (close != std::string::npos) msg.erase(0, close + 2);
+  }
+  if (const auto last = msg.find("; last read:"); last != std::string::npos) msg.erase(last);
+  return msg;
+}
+
 struct Rejected {
   std::string why;
 };
@@ -150,11 +163,13 @@ Expected<nlohmann::json> parseJson(std::string_view text, const JsonLimits& limi
     return json::parse(text, cb);
   } catch (const Rejected& r) {
     return Status::error(r.why);
-  } catch (const json::out_of_range& e) {
-    // nlohmann's 406: "number overflow parsing '1e999'"
-    return Status::error(std::string("number out of range: ") + e.what());
+  } catch (const json::out_of_range&) {
+    // nlohmann's 406, "number overflow parsing '1e999'", quotes the number.
+    return Status::error("number out of range: a number outside double");
+  } catch (const json::parse_error& e) {
+    return Status::error("invalid JSON: " + withoutContent(e.what()));
   } catch (const json::exception& e) {
-    return Status::error(std::string("invalid JSON: ") + e.what());
+    return Status::error("invalid JSON: " + withoutContent(e.what()));
   }
 }
 

@@ -1,4 +1,6 @@
 #include "lgp/core/table.hpp"
+#include "lgp/core/csv.hpp"
+#include "lgp/core/text_check.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -62,6 +64,7 @@ Status Table::validate() const {
   if (n == 0) return Status::error("table has no rows");
   std::set<std::string> seen;
   auto check = [&](const std::string& name, const std::vector<double>& col) -> Status {
+    if (auto s = checkNoControlCharacters(name, "a column name"); !s) return s;
     if (!seen.insert(name).second) return Status::error("column '" + name + "' appears twice");
     if (col.size() != n)
       return Status::error("column '" + name + "' has " + std::to_string(col.size()) +
@@ -108,86 +111,47 @@ int RawTable::find(const std::string& name) const {
   return -1;
 }
 
-namespace {
-
-std::string trim(const std::string& s) {
-  size_t b = 0, e = s.size();
-  while (b < e && (s[b] == ' ' || s[b] == '\t' || s[b] == '\r' || s[b] == '"')) ++b;
-  while (e > b && (s[e - 1] == ' ' || s[e - 1] == '\t' || s[e - 1] == '\r' || s[e - 1] == '"')) --e;
-  return s.substr(b, e - b);
-}
-
-std::vector<std::string> splitCsv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char ch : line) {
-    if (ch == ',') {
-      out.push_back(trim(cur));
-      cur.clear();
-    } else {
-      cur += ch;
-    }
+Status checkCsvHeader(const std::vector<std::string>& names, const std::string& f, size_t line) {
+  const std::string at = f + ": line " + std::to_string(line) + " (header), column ";
+  for (size_t c = 0; c < names.size(); ++c) {
+    if (names[c].empty()) return Status::error(at + std::to_string(c + 1) + ": empty name");
+    if (auto s = checkNoControlCharacters(names[c], at + std::to_string(c + 1) + ": the name"); !s)
+      return s;
+    for (size_t e = 0; e < c; ++e)
+      if (names[e] == names[c])
+        return Status::error(at + std::to_string(c + 1) + ": the same name as column " +
+                             std::to_string(e + 1));
   }
-  out.push_back(trim(cur));
-  return out;
+  return Status::ok();
 }
-
-}  // namespace
 
 Expected<RawTable> readCsv(const std::filesystem::path& path) {
   const std::string f = path.string();
   auto text = readInputFile(path);
   if (!text) return text.status();
-  std::string_view rest = *text;
-  if (rest.substr(0, 3) == "\xEF\xBB\xBF") rest.remove_prefix(3);  // UTF-8 byte order mark
-  auto getline = [&](std::string& line) {
-    if (rest.empty()) return false;
-    const size_t e = rest.find('\n');
-    line.assign(rest.substr(0, e));
-    rest.remove_prefix(e == std::string_view::npos ? rest.size() : e + 1);
-    return true;
-  };
+  std::string_view body = *text;
+  if (body.substr(0, 3) == "\xEF\xBB\xBF") body.remove_prefix(3);  // UTF-8 byte order mark
+  // The file may be any file a path points at (a symlink to a secret): no message quotes it.
+  CsvReader reader(body, f);
   RawTable t;
-  std::string line;
-  size_t lineno = 0;
-  // Header (skipping blank and '#' comment lines).
-  while (getline(line)) {
-    ++lineno;
-    if (trim(line).empty() || trim(line)[0] == '#') continue;
-    t.names = splitCsv(line);
-    break;
-  }
-  if (t.names.empty()) return Status::error(f + ": empty file, expected a header row");
-  std::set<std::string> seen;
-  for (size_t c = 0; c < t.names.size(); ++c) {
-    if (t.names[c].empty())
-      return Status::error(f + ": header, column " + std::to_string(c + 1) + ": empty name");
-    if (!seen.insert(t.names[c]).second)
-      return Status::error(f + ": header, column " + std::to_string(c + 1) + " ('" + t.names[c] +
-                           "'): duplicate name");
-  }
+  auto header = reader.next(t.names);
+  if (!header) return header.status();
+  if (!*header) return Status::error(f + ": empty file, expected a header row");
+  if (auto s = checkCsvHeader(t.names, f, reader.line()); !s) return s;
   t.columns.resize(t.names.size());
-  while (getline(line)) {
-    ++lineno;
-    if (trim(line).empty() || trim(line)[0] == '#') continue;
-    const auto cells = splitCsv(line);
+  std::vector<std::string> cells;
+  for (;;) {
+    auto more = reader.next(cells);
+    if (!more) return more.status();
+    if (!*more) break;
+    const std::string at = f + ": line " + std::to_string(reader.line());
     if (cells.size() != t.names.size())
-      return Status::error(f + ": line " + std::to_string(lineno) + ": " +
-                           std::to_string(cells.size()) + " fields, header has " +
+      return Status::error(at + ": " + std::to_string(cells.size()) + " fields, header has " +
                            std::to_string(t.names.size()));
     for (size_t c = 0; c < cells.size(); ++c) {
-      const std::string& s = cells[c];
-      char* end = nullptr;
-      errno = 0;
-      const double v = s.empty() ? NAN : std::strtod(s.c_str(), &end);
-      // ERANGE on underflow (1e-310, a subnormal, or 1e-400, which is 0) is a finite value and
-      // accepted; on overflow strtod returns HUGE_VAL, which isfinite refuses.
-      if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
-        return Status::error(f + ": line " + std::to_string(lineno) + ", column " +
-                             std::to_string(c + 1) + " ('" + t.names[c] + "'): '" + s +
-                             "' is not " +
-                             (errno == ERANGE ? "within the range of double" : "a finite number"));
-      t.columns[c].push_back(v);
+      auto v = parseCsvNumber(cells[c]);
+      if (!v) return Status::error(at + ", column " + std::to_string(c + 1) + ": " + v.error());
+      t.columns[c].push_back(*v);
     }
   }
   if (t.columns[0].empty()) return Status::error(f + ": no data rows after the header");
@@ -197,14 +161,17 @@ Expected<RawTable> readCsv(const std::filesystem::path& path) {
 Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& f) {
   if (!j.is_object()) return Status::error(f + ": a JSON table must be an object");
   if (j.contains("format") && j["format"] != "lgp-table/1")
-    return Status::error(f + ": /format: unsupported '" + j["format"].dump() +
-                         "', expected \"lgp-table/1\"");
+    return Status::error(f + ": /format: unsupported, expected \"lgp-table/1\"");
   if (!j.contains("columns") || !j["columns"].is_object())
     return Status::error(f + ": /columns: required object of name -> array of numbers");
   RawTable t;
   size_t n = 0;
   bool first = true;
   for (auto it = j["columns"].begin(); it != j["columns"].end(); ++it) {
+    if (auto s = checkNoControlCharacters(
+            it.key(), f + ": /columns: the name of column " + std::to_string(t.names.size() + 1));
+        !s)
+      return s;
     const std::string at = f + ": /columns/" + it.key();
     if (!it.value().is_array()) return Status::error(at + ": must be an array of numbers");
     std::vector<double> col;
@@ -337,7 +304,7 @@ Status writeCsv(const Table& t, const std::filesystem::path& path) {
     cols.push_back(&t.weights);
     names.push_back("weight");
   }
-  for (size_t c = 0; c < names.size(); ++c) out << (c ? "," : "") << names[c];
+  for (size_t c = 0; c < names.size(); ++c) out << (c ? "," : "") << csvField(names[c]);
   out << "\n";
   char buf[64];
   for (size_t r = 0; r < t.rows(); ++r) {

@@ -1,4 +1,6 @@
 #include "lgp/io/result.hpp"
+#include "lgp/core/csv.hpp"
+#include "lgp/core/text_check.hpp"
 
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
@@ -106,11 +108,10 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"ranks", p.ranks},
             {"remote_migrants", p.remote_migrants}}},
           // With measured cost in the search, members' "cost" is measured instructions.
-          {"cost_model", cfg.objectives.measured_cost.in_search &&
-                                 !cfg.objectives.measured_cost.families.empty()
-                             ? "measured:" + std::string(toString(
-                                                 cfg.objectives.measured_cost.families.front()))
-                             : std::string(toString(cfg.objectives.cost_model))},
+          {"cost_model",
+           cfg.objectives.measured_cost.in_search && !cfg.objectives.measured_cost.families.empty()
+               ? "measured:" + std::string(toString(cfg.objectives.measured_cost.families.front()))
+               : std::string(toString(cfg.objectives.cost_model))},
           {"error_metric", std::string(toString(cfg.objectives.metric))},
           {"error_channels", channelNames(err_cfg, t.output_names)},
           {"members", members},
@@ -199,11 +200,6 @@ nlohmann::json progressToJson(const SearchProgress& p) {
 }
 
 namespace {
-std::string csvQuote(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return out + "\"";
-}
 std::string fmt(double v) {
   if (!std::isfinite(v)) return "inf";
   char buf[32];
@@ -219,14 +215,16 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
   for (const auto& m : front.at("members")) {
     for (const auto& o : m.at("outputs")) {
       const auto& f = o.at("float32");
-      os << m.at("index").get<size_t>() << "," << o.at("name").get<std::string>() << ","
-         << fmt(getNum(m, "error")) << "," << fmt(getNum(m, "cost")) << ","
-         << fmt(getNum(m, "discontinuity")) << "," << fmt(getNum(f, "rmse")) << ","
-         << fmt(getNum(f, "max_abs")) << "," << fmt(getNum(f, "mae")) << ","
-         << fmt(getNum(f, "mean_rel")) << "," << fmt(getNum(f, "r2")) << ","
+      // Spreadsheets open this file: no cell may start a formula (=HYPERLINK(...)).
+      os << m.at("index").get<size_t>() << ","
+         << csvSpreadsheetField(o.at("name").get<std::string>()) << "," << fmt(getNum(m, "error"))
+         << "," << fmt(getNum(m, "cost")) << "," << fmt(getNum(m, "discontinuity")) << ","
+         << fmt(getNum(f, "rmse")) << "," << fmt(getNum(f, "max_abs")) << ","
+         << fmt(getNum(f, "mae")) << "," << fmt(getNum(f, "mean_rel")) << ","
+         << fmt(getNum(f, "r2")) << ","
          << fmt(m.contains("cancellation") ? getNum(m["cancellation"], "bits_lost") : INFINITY)
-         << "," << csvQuote(o.at("expression").get<std::string>()) << ","
-         << csvQuote(m.value("formula", "")) << "\n";
+         << "," << csvSpreadsheetField(o.at("expression").get<std::string>()) << ","
+         << csvSpreadsheetField(m.value("formula", "")) << "\n";
     }
   }
   const auto tmp = path.string() + ".tmp";
@@ -251,6 +249,28 @@ Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
     return Status::error(f + ": /members: must be an array");
   if (!j.contains("table") || !j["table"].contains("inputs") || !j["table"].contains("outputs"))
     return Status::error(f + ": /table: must name inputs and outputs");
+  // Names and the data path are copied into messages and the comments of emitted code.
+  for (const char* key : {"inputs", "outputs"}) {
+    const auto& names = j["table"][key];
+    if (!names.is_array()) return Status::error(f + ": /table/" + key + ": must be an array");
+    for (size_t i = 0; i < names.size(); ++i) {
+      if (!names[i].is_string())
+        return Status::error(f + ": /table/" + key + "/" + std::to_string(i) +
+                             ": must be a string");
+      if (auto s = checkNoControlCharacters(names[i].get<std::string>(),
+                                            f + ": /table/" + key + "/" + std::to_string(i));
+          !s)
+        return s;
+    }
+  }
+  if (j.contains("config") && j["config"].is_object() && j["config"].contains("data") &&
+      j["config"]["data"].is_object())
+    for (const char* key : {"path", "scene"})
+      if (const auto& d = j["config"]["data"]; d.contains(key) && d[key].is_string())
+        if (auto s =
+                checkNoControlCharacters(d[key].get<std::string>(), f + ": /config/data/" + key);
+            !s)
+          return s;
   for (size_t i = 0; i < j["members"].size(); ++i) {
     const auto& m = j["members"][i];
     const std::string at = f + ": /members/" + std::to_string(i);

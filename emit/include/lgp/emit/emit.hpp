@@ -123,6 +123,11 @@ struct MemberSelector {
 };
 Expected<size_t> selectMember(const nlohmann::json& front, const MemberSelector& sel);
 
+// Text made safe for a // comment of HLSL, GLSL or C++: bytes outside printable ASCII, '%'
+// and '\\' become %XX, and a '?' that follows a '?' becomes %3F, so no newline, line
+// continuation or trigraph can end the comment or continue it onto code.
+std::string commentText(std::string_view text);
+
 // A C identifier made from a column name ("n.v" -> "n_v", "2x" -> "_2x"), never a keyword of
 // HLSL, GLSL or C++.
 std::string sanitizeIdentifier(std::string_view name);

@@ -9,8 +9,8 @@
 //     "weights": [...],                                   // optional, one per row, >= 0
 //     "errors":  { "A": [...], "B": [...] },              // optional per-entry error estimates
 //     "meta": { ... } }                                   // optional, free-form
-// CSV: a header row of column names, then one row of numbers per sample; a UTF-8 byte
-// order mark at the start is skipped.
+// CSV (RFC 4180: "1,5" is one field, "" a quote): a header row of column names, then one row
+// of decimal numbers per sample; a UTF-8 byte order mark at the start is skipped.
 //
 // Values: finite, and within the float32 range (rounding to at most kTableValueMax =
 // FLT_MAX, about 3.4e38, in magnitude), since the search evaluates in float32; the error
@@ -77,7 +77,11 @@ struct RawTable {
   int find(const std::string& name) const;
 };
 
+// RFC 4180 (lgp/core/csv.hpp); decimal numbers only (no hex, inf or nan). Errors name the
+// file, line and column and quote nothing of it.
 Expected<RawTable> readCsv(const std::filesystem::path& path);
+// Header names: not empty, no control characters, no name twice. `line`: the header's line.
+Status checkCsvHeader(const std::vector<std::string>& names, const std::string& file, size_t line);
 Expected<RawTable> readJsonTable(const std::filesystem::path& path);
 Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& origin);
 // By extension: .csv is CSV, anything else is parsed as a JSON table.
