@@ -19,6 +19,14 @@ std::string scalarType(const Ctx& c) {
 }
 
 std::string literal(double v, const Ctx& c) {
+  // A constant beyond binary16's range is infinite in half (as lgp's half emulation has it),
+  // and no language has an infinity literal: build it from its bit pattern.
+  if (c.prec == Precision::Half && !std::isfinite(roundToHalf(static_cast<float>(v)))) {
+    const std::string inf = c.lang == Language::Glsl   ? "float16_t(uintBitsToFloat(0x7F800000u))"
+                            : c.lang == Language::Hlsl ? "((half)asfloat(0x7F800000u))"
+                                                       : "std::numeric_limits<float>::infinity()";
+    return v < 0 ? "(-" + inf + ")" : inf;
+  }
   std::string s;
   switch (c.prec) {
     case Precision::Float:

@@ -32,6 +32,12 @@ std::vector<std::pair<Program, std::vector<Interval>>> programs() {
     out.emplace_back(test::randomProgram(rng, 2, 3, 1, false, info.op), any);
     out.emplace_back(test::randomProgram(rng, 2, 3, 1, false, info.op), pos);
   }
+  // Constants beyond binary16's range: infinite in half, and still valid code.
+  Program big;
+  big.code.push_back(Instr{Op::Mad, {inputOperand(0), constOperand(0), constOperand(1)}});
+  big.constants = {1.0e5f, -7.0e4f};
+  big.outputs = {0};
+  out.emplace_back(big, any);
   for (int i = 0; i < 60; ++i) {
     const int k = 1 + i % 5;  // 1..5 outputs: scalar, vectors, and a struct
     const int len = std::max(k, std::uniform_int_distribution<int>(3, 14)(rng));
