@@ -136,7 +136,11 @@ std::string fmt(double v, const char* f = "%.4g") {
 
 std::string mdEscape(const std::string& s) {
   std::string o;
-  for (char c : s) o += c == '|' ? std::string("\\|") : std::string(1, c);
+  // A table cell is one line: a compiler's multi-line message is joined with spaces.
+  for (char c : s)
+    o += c == '|'                   ? std::string("\\|")
+         : (c == '\n' || c == '\r') ? std::string(" ")
+                                    : std::string(1, c);
   return o;
 }
 
