@@ -312,6 +312,13 @@ int runMain(int argc, char** argv) {
   }
   auto j = lgp::frontToJson(search, front);
   if (!mpi_stats.is_null()) j["progress"]["mpi"] = mpi_stats;
+  // After Ctrl-C a launcher such as mpirun gives the process about a second: the front goes
+  // to disk first (atomically), then is rewritten with the references and measured costs.
+  if (g_interrupts.load() > 0)
+    if (auto st = lgp::writeFrontJson(j, cfg->output.front_json); !st) {
+      std::fprintf(stderr, "error: %s\n", st.message().c_str());
+      return 1;
+    }
 #ifdef LGP_HAVE_EMIT
   if (!cfg->references.empty())
     j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
