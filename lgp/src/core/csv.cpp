@@ -40,6 +40,15 @@ Expected<bool> CsvReader::next(std::vector<std::string>& fields) {
   };
   while (pos_ < n) {
     const char c = text_[pos_++];
+    // Outside quotes a comma ends the field and a newline the record, whatever came before.
+    if (st != State::Quoted && (c == ',' || c == '\n')) {
+      endField();
+      st = State::Start;
+      if (c == ',') continue;
+      ++line_;
+      terminated_ = true;
+      return true;
+    }
     switch (st) {
       case State::Start:
         if (c == ' ' || c == '\t') break;
@@ -51,21 +60,11 @@ Expected<bool> CsvReader::next(std::vector<std::string>& fields) {
         st = State::Unquoted;
         [[fallthrough]];
       case State::Unquoted:
-        if (c == ',') {
-          endField();
-          st = State::Start;
-        } else if (c == '\n') {
-          endField();
-          ++line_;
-          terminated_ = true;
-          return true;
-        } else if (c == '"') {
+        if (c == '"')
           return error(line_, fields.size() + 1,
                        "a double quote inside an unquoted field (quote the whole field and "
                        "write a quote as \"\")");
-        } else {
-          cur += c;
-        }
+        cur += c;
         break;
       case State::Quoted:
         if (c == '"') {
@@ -82,18 +81,7 @@ Expected<bool> CsvReader::next(std::vector<std::string>& fields) {
         break;
       case State::AfterQuote:
         if (c == ' ' || c == '\t' || c == '\r') break;
-        if (c == ',') {
-          endField();
-          st = State::Start;
-        } else if (c == '\n') {
-          endField();
-          ++line_;
-          terminated_ = true;
-          return true;
-        } else {
-          return error(line_, fields.size() + 1, "text after the closing quote of a field");
-        }
-        break;
+        return error(line_, fields.size() + 1, "text after the closing quote of a field");
     }
   }
   if (st == State::Quoted)
