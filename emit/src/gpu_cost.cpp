@@ -2,6 +2,7 @@
 #include "lgp/emit/gpu_cost.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <mutex>
 #include <unordered_map>
 
@@ -113,6 +114,27 @@ Expected<IsaStats> measureEmitted(const Emitted& e, Language lang, Precision pre
        {&m.instructions, &m.latency, &m.inverse_throughput, &m.vgprs, &m.sgprs, &m.code_bytes})
     *v = std::max(0.0, *v);
   return m;
+}
+
+Expected<Emitted> emitMeasured(const EmitInput& in, Language lang, EmitOptions opts) {
+  auto e = emitProgram(in, lang, opts);
+  if (!e || lang == Language::Cpp || !opts.header) return e;
+  std::string line =
+      "Measured (ACO instructions / latency / VGPRs of this code over an I/O-only shader):";
+  for (int f = 0; f < kNumGpuFamilies; ++f) {
+    const auto fam = static_cast<GpuFamily>(f);
+    auto m = measureEmitted(*e, lang, opts.precision, fam);
+    if (!m) {
+      line = "Measured: not available (" + m.error() + ")";
+      break;
+    }
+    char b[96];
+    std::snprintf(b, sizeof b, " %s %.0f/%.0f/%.0f", std::string(toString(fam)).c_str(),
+                  m->instructions, m->latency, m->vgprs);
+    line += b;
+  }
+  opts.header_lines.push_back(line);
+  return emitProgram(in, lang, opts);
 }
 
 std::string describe(const MeasureOptions& o) {

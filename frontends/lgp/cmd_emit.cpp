@@ -1,7 +1,10 @@
 // `lgp emit front.json --lang hlsl|glsl|cpp`: export one front member as shader or C++ code.
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <cxxopts.hpp>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -24,6 +27,23 @@ std::string num(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.3g", v);
   return std::isfinite(v) ? b : "inf";
+}
+
+// `-o`: a file through a temporary one, so that a failed write (a full disk) leaves no
+// truncated file behind; a device or pipe (/dev/stdout, a FIFO) written in place. Either way a
+// failed write is an error.
+lgp::Status writeOut(const std::string& text, const std::string& path) {
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(st) || std::filesystem::is_regular_file(st))
+    return lgp::writeTextAtomic(text, path);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) return lgp::Status::error(path + ": cannot write (" + std::strerror(errno) + ")");
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0;
+  const int err = errno;
+  if (std::fclose(f) != 0 || !ok)
+    return lgp::Status::error(path + ": write failed (" + std::strerror(ok ? errno : err) + ")");
+  return lgp::Status::ok();
 }
 
 // `--verify vulkan`: every language and precision on lavapipe; the report goes to stderr so that
@@ -200,39 +220,17 @@ int emitMain(int argc, char** argv) {
     eo.table = &*table;
   }
   eo.source = path + " member " + std::to_string(*member);
-  auto e = lgp::emit::emitProgram(*in, *lang, eo);
+  // The code as emitted, compiled to AMD ISA: the header states what it costs.
+  auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, eo)
+                                    : lgp::emit::emitMeasured(*in, *lang, eo);
   if (!e) return fail(e.error());
-  if (*lang != lgp::emit::Language::Cpp && eo.header && !args.count("no-measure")) {
-    // The code as emitted, compiled to AMD ISA: the header states what it costs.
-    std::string line =
-        "Measured (ACO instructions / latency / VGPRs of this code over an I/O-only shader):";
-    bool any = false;
-    for (int f = 0; f < lgp::kNumGpuFamilies; ++f) {
-      const auto fam = static_cast<lgp::GpuFamily>(f);
-      auto m = lgp::emit::measureEmitted(*e, *lang, eo.precision, fam);
-      if (!m) {
-        line = "Measured: not available (" + m.error() + ")";
-        any = true;
-        break;
-      }
-      char b[96];
-      std::snprintf(b, sizeof b, " %s %.0f/%.0f/%.0f", std::string(lgp::toString(fam)).c_str(),
-                    m->instructions, m->latency, m->vgprs);
-      line += b;
-      any = true;
-    }
-    if (any) {
-      eo.header_lines.push_back(line);
-      e = lgp::emit::emitProgram(*in, *lang, eo);
-      if (!e) return fail(e.error());
-    }
-  }
   if (args.count("out")) {
     const std::string out = args["out"].as<std::string>();
-    std::ofstream f(out);
-    if (!(f << e->code)) return fail(out + ": cannot write");
+    if (auto st = writeOut(e->code, out); !st) return fail(st.message());
   } else {
-    std::cout << e->code;
+    std::cout << e->code << std::flush;
+    if (!std::cout || std::fflush(stdout) != 0)
+      return fail("standard output: write failed (" + std::string(std::strerror(errno)) + ")");
   }
   if (args.count("verify"))
     return verifyVulkan(*in, *table, *member, args["verify-ulp"].as<double>());

@@ -67,6 +67,12 @@ Expected<IsaStats> shaderIsaStats(GpuFamily f, Language lang, const std::string&
 Expected<IsaStats> measureEmitted(const Emitted& e, Language lang, Precision precision,
                                   GpuFamily f);
 
+// emitProgram, plus a header line that states what this very code costs compiled to AMD ISA,
+// per GPU family (ACO instructions / latency / VGPRs over its I/O-only twin), or why it could
+// not be measured. C++, or no header: emitProgram alone. What `lgp emit` prints and the Python
+// module's Member.emit returns, byte for byte.
+Expected<Emitted> emitMeasured(const EmitInput& in, Language lang, EmitOptions opts);
+
 struct MeasureOptions {
   std::vector<GpuFamily> families = allGpuFamilies();
   Language lang = Language::Hlsl;
