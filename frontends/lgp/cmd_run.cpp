@@ -17,11 +17,8 @@
 #include "lgp/search/mpi_driver.hpp"
 #include "lgp/search/search.hpp"
 #include "lgp/search/two_step.hpp"
+#include "run_extras.hpp"
 #include "table_source.hpp"
-#ifdef LGP_HAVE_EMIT
-#include "lgp/emit/gpu_cost.hpp"
-#include "lgp/emit/score.hpp"
-#endif
 
 namespace {
 
@@ -141,10 +138,8 @@ int runMain(int argc, char** argv) {
   if (distributed) table = lgp::mpi::shareTable(table);
 #endif
   if (!table) return fail(table.error(), 2);
-#ifdef LGP_HAVE_EMIT
   // Reference formulas are checked before the night's work starts, not after.
-  if (auto st = lgp::emit::checkReferences(*cfg, *table); !st) return fail(st.message(), 2);
-#endif
+  if (auto st = lgp::cli::checkRunReferences(*cfg, *table); !st) return fail(st.message(), 2);
   const bool quiet = args.count("quiet") > 0 || !root;
   const bool tty = isatty(fileno(stderr));
   if (!quiet) {
@@ -158,14 +153,10 @@ int runMain(int argc, char** argv) {
   }
 
   std::vector<lgp::NamedProgram> seeds;
-  if (cfg->search.seed_references && !resume) {
-#ifdef LGP_HAVE_EMIT
-    auto progs = lgp::emit::referencePrograms(*cfg, *table);
+  if (!resume) {
+    auto progs = lgp::cli::referenceSeeds(*cfg, *table);
     if (!progs) return fail(progs.error(), 2);
     seeds = std::move(*progs);
-#else
-    return fail("/search/seed_references: needs the emit library (parser)", 2);
-#endif
   }
   if (two_step && !seeds.empty())
     return fail("/search/seed_references: not available with two_step", 2);
@@ -188,12 +179,7 @@ int runMain(int argc, char** argv) {
     if (resume)
       if (auto st = single->restore(*ck); !st)
         return fail(cfg->output.checkpoint + ": " + st.message(), 2);
-#ifdef LGP_HAVE_EMIT
-    if (auto st = lgp::emit::enableMeasuredCostInSearch(*single); !st) return fail(st.message(), 2);
-#else
-    if (cfg->objectives.measured_cost.in_search)
-      return fail("/objectives/measured_cost/in_search: this build has no emit library", 2);
-#endif
+    if (auto st = lgp::cli::enableArchiveMeasuredCost(*single); !st) return fail(st.message(), 2);
     // A reference that does not fit the program shape is reported, not fatal.
     for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
@@ -319,25 +305,8 @@ int runMain(int argc, char** argv) {
       std::fprintf(stderr, "error: %s\n", st.message().c_str());
       return 1;
     }
-#ifdef LGP_HAVE_EMIT
-  if (!cfg->references.empty())
-    j["references"] = lgp::emit::scoreReferences(search.config(), search.table());
-  if (!cfg->objectives.measured_cost.families.empty()) {
-    // Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp); a machine without
-    // the backend still gets its front, with the reason recorded.
-    lgp::emit::MeasureOptions mo;
-    mo.families = cfg->objectives.measured_cost.families;
-    const auto t0 = Clock::now();
-    lgp::emit::addMeasuredCost(j, mo);
-    const auto& info = j["cost_measured_info"];
-    if (!quiet && info.contains("unavailable"))
-      std::fprintf(stderr, "lgp: no measured GPU cost: %s\n",
-                   info["unavailable"].get<std::string>().c_str());
-    else if (!quiet)
-      std::fprintf(stderr, "lgp: measured GPU cost of %zu members on %s in %.1f s\n", front.size(),
-                   info["families"].dump().c_str(), since(t0));
-  }
-#endif
+  if (const std::string note = lgp::cli::addFrontExtras(j, search); !note.empty() && !quiet)
+    std::fprintf(stderr, "lgp: %s\n", note.c_str());
   if (auto st = lgp::writeFrontJson(j, cfg->output.front_json); !st) {
     std::fprintf(stderr, "error: %s\n", st.message().c_str());
     return 1;

@@ -1,0 +1,70 @@
+#include "run_extras.hpp"
+
+#include <chrono>
+#include <cstdio>
+
+#ifdef LGP_HAVE_EMIT
+#include "lgp/emit/gpu_cost.hpp"
+#include "lgp/emit/score.hpp"
+#endif
+
+namespace lgp::cli {
+
+Status checkRunReferences(const RunConfig& cfg, const Table& t) {
+#ifdef LGP_HAVE_EMIT
+  return emit::checkReferences(cfg, t);
+#else
+  if (!cfg.references.empty())
+    return Status::error("/references: this build has no emit library (formula parser)");
+  (void)t;
+  return Status::ok();
+#endif
+}
+
+Expected<std::vector<NamedProgram>> referenceSeeds(const RunConfig& cfg, const Table& t) {
+  if (!cfg.search.seed_references) return std::vector<NamedProgram>{};
+#ifdef LGP_HAVE_EMIT
+  return emit::referencePrograms(cfg, t);
+#else
+  (void)t;
+  return Status::error("/search/seed_references: needs the emit library (parser)");
+#endif
+}
+
+Status enableArchiveMeasuredCost(Search& s) {
+#ifdef LGP_HAVE_EMIT
+  return emit::enableMeasuredCostInSearch(s);
+#else
+  if (s.config().objectives.measured_cost.in_search)
+    return Status::error("/objectives/measured_cost/in_search: this build has no emit library");
+  return Status::ok();
+#endif
+}
+
+std::string addFrontExtras(nlohmann::json& front, const Search& s) {
+#ifdef LGP_HAVE_EMIT
+  const RunConfig& cfg = s.config();
+  if (!cfg.references.empty()) front["references"] = emit::scoreReferences(cfg, s.table());
+  if (cfg.objectives.measured_cost.families.empty()) return "";
+  // Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp); a machine without the
+  // backend still gets its front, with the reason recorded.
+  emit::MeasureOptions mo;
+  mo.families = cfg.objectives.measured_cost.families;
+  const auto t0 = std::chrono::steady_clock::now();
+  emit::addMeasuredCost(front, mo);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const auto& info = front["cost_measured_info"];
+  if (info.contains("unavailable"))
+    return "no measured GPU cost: " + info["unavailable"].get<std::string>();
+  char b[64];
+  std::snprintf(b, sizeof b, " in %.1f s", secs);
+  return "measured GPU cost of " + std::to_string(front["members"].size()) + " members on " +
+         info["families"].dump() + b;
+#else
+  (void)front;
+  (void)s;
+  return "";
+#endif
+}
+
+}  // namespace lgp::cli
