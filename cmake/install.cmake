@@ -38,7 +38,7 @@ install(FILES ${PROJECT_BINARY_DIR}/lgpConfig.cmake ${PROJECT_BINARY_DIR}/lgpCon
 
 # Everything `cmake --install` copies (scripts/lgp.sh install builds this, not the tests).
 add_custom_target(lgp_installables)
-foreach(t ${lgp_libraries} lgp lgpd lgp_gpu_worker)
+foreach(t ${lgp_libraries} lgp lgpd lgp_gpu_worker _lgp)
   if(TARGET ${t})
     add_dependencies(lgp_installables ${t})
   endif()

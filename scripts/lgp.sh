@@ -26,10 +26,15 @@ RUN_PACKAGES=(
 )
 # lgpd (without them CMake skips the daemon): SQLite, cpp-httplib and pkg-config to find it.
 DAEMON_PACKAGES=(pkg-config libcpp-httplib-dev libsqlite3-dev)
+# The Python module (frontends/python) and what its tests use (scikit-learn's estimator
+# checks, SymPy for Member.sympy).
+PYTHON_PACKAGES=(python3-dev pybind11-dev python3-numpy)
+PYTHON_TEST_PACKAGES=(python3-pytest python3-sklearn python3-sympy)
 # The rest, for `test`: the test and benchmark libraries (LGP_BUILD_TESTS, LGP_BUILD_BENCH),
 # MPI (LGP_WITH_MPI), the GPU backend (LGP_WITH_GPU) and Chromium for the browser test.
 TEST_PACKAGES=(
   "${DAEMON_PACKAGES[@]}"
+  "${PYTHON_PACKAGES[@]}" "${PYTHON_TEST_PACKAGES[@]}"
   libgtest-dev libgmock-dev libbenchmark-dev
   openmpi-bin libopenmpi-dev
   glslang-tools glslang-dev libvulkan-dev mesa-vulkan-drivers
@@ -37,7 +42,7 @@ TEST_PACKAGES=(
 )
 # The find_package names TEST_PACKAGES provide: a `run` build must configure without them
 # (tests/repo/run_packages_test.sh checks it).
-TEST_FIND_PACKAGES=(GTest benchmark MPI Vulkan glslang SQLite3 httplib PkgConfig)
+TEST_FIND_PACKAGES=(GTest benchmark MPI Vulkan glslang SQLite3 httplib PkgConfig pybind11)
 # The cache options of a `run` build: no tests or benchmarks, so GTest and benchmark are not
 # required.
 RUN_CMAKE_ARGS=(-DLGP_BUILD_TESTS=OFF -DLGP_BUILD_BENCH=OFF)
@@ -69,8 +74,14 @@ build() {
   # end with one core idle. An existing build tree keeps the generator it was made with.
   local gen=()
   if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]] && command -v ninja >/dev/null; then gen=(-G Ninja); fi
+  # The Python module is for Debian's python3, the one the packages above install numpy for
+  # (another python3 first on PATH, e.g. pyenv's, may lack it).
+  local py=()
+  if [[ -x /usr/bin/python3 && ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
+    py=(-DPython3_EXECUTABLE=/usr/bin/python3)
+  fi
   cmake -S "$ROOT" -B "$BUILD_DIR" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${CMAKE_ARGS[@]}" \
-    >/dev/null
+    "${py[@]}" >/dev/null
   if (($# > 0)); then
     cmake --build "$BUILD_DIR" -j "$JOBS" --target "$@"
   else
@@ -100,12 +111,17 @@ case "$cmd" in
     ;;
   install)
     prefix="$(realpath -m "${2:-$HOME/.local}")"
-    deps "${RUN_PACKAGES[@]}" "${DAEMON_PACKAGES[@]}"
+    deps "${RUN_PACKAGES[@]}" "${DAEMON_PACKAGES[@]}" "${PYTHON_PACKAGES[@]}"
     CMAKE_ARGS=("${RUN_CMAKE_ARGS[@]}")
     build lgp_installables
     cmake --install "$BUILD_DIR" --prefix "$prefix"
     echo "lgp: installed lgp and lgpd in $prefix/bin; put it on PATH with"
     echo "  export PATH=\"$prefix/bin:\$PATH\""
+    pydir=$(find "$prefix/lib" -maxdepth 3 -type d -path '*/site-packages/lgp' 2>/dev/null | head -1)
+    if [[ -n "$pydir" ]]; then
+      echo "lgp: installed the Python package in $pydir; where your Python does not look there:"
+      echo "  export PYTHONPATH=\"$(dirname "$pydir"):\$PYTHONPATH\""
+    fi
     ;;
   test)
     deps "${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}"

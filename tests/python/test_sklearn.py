@@ -1,0 +1,46 @@
+"""lgp.Regressor as a scikit-learn estimator."""
+
+import numpy as np
+import pytest
+
+import lgp
+
+sklearn = pytest.importorskip("sklearn")
+from sklearn.utils.estimator_checks import check_estimator  # noqa: E402
+
+
+def test_passes_sklearn_estimator_checks():
+    # A small budget: the checks fit some 60 times.
+    check_estimator(lgp.Regressor(generations=8, population=40, max_length=8))
+
+
+def test_regressor_fits_and_chooses():
+    rng = np.random.default_rng(0)
+    X = rng.uniform(0, 1, size=(300, 2))
+    y = np.exp2(-7 * X[:, 0] - 4 * X[:, 1] ** 2)
+    r = lgp.Regressor(ops=["add", "sub", "mul", "mad", "neg", "square", "exp2"],
+                      generations=150, random_state=1)
+    r.fit(X, y)
+    assert r.score(X, y) > 0.999
+    assert r.n_features_in_ == 2 and r.formula_ == r.model_.formula
+    cheap = lgp.Regressor(**{**r.get_params(), "select": "cost", "max_error": 0.05}).fit(X, y)
+    assert cheap.model_.cost <= r.model_.cost and cheap.model_.error <= 0.05
+    knee = r.set_params(select="knee").fit(X, y)
+    assert knee.model_.index in range(len(knee.front_))
+    with pytest.raises(ValueError, match="select"):
+        lgp.Regressor(select="median").fit(X, y)
+    with pytest.raises(ValueError, match="random_state"):
+        lgp.Regressor(random_state=-3, generations=2).fit(X, y)
+
+
+def test_pipeline_and_grid_search():
+    from sklearn.model_selection import cross_val_score
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    rng = np.random.default_rng(1)
+    X = rng.uniform(-1, 1, size=(200, 3))
+    y = 3 * X[:, 0] * X[:, 1] + X[:, 2]
+    model = make_pipeline(StandardScaler(), lgp.Regressor(generations=60, random_state=2))
+    scores = cross_val_score(model, X, y, cv=3)
+    assert np.all(scores > 0.9), scores
