@@ -53,6 +53,9 @@ Expected<std::vector<Token>> lex(const std::string& s, const std::string& where)
     }
     if (std::isdigit(static_cast<unsigned char>(ch)) ||
         (ch == '.' && i + 1 < s.size() && std::isdigit(static_cast<unsigned char>(s[i + 1])))) {
+      // Decimal only, as in tables: strtod would also read 0x10 (16) and 0x1p3 (8).
+      if (ch == '0' && i + 1 < s.size() && (s[i + 1] == 'x' || s[i + 1] == 'X'))
+        return err(i, "hexadecimal numbers are not accepted (write the decimal value)");
       const char* begin = s.c_str() + i;
       char* end = nullptr;
       const double v = std::strtod(begin, &end);

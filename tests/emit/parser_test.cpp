@@ -149,6 +149,11 @@ TEST(EmitParser, ErrorsSayWhatAndWhere) {
   EXPECT_NE(parseError({"x", "y", "x"}, xy({"A", "B"})).find("got 3 expressions for 2 outputs"),
             std::string::npos);
   EXPECT_NE(parseError({"1.5.5"}, xy()).find("malformed number"), std::string::npos);
+  // Decimal only, as in tables: strtod alone reads these as 16 and 8.
+  for (const char* hex : {"0x10*x", "2*0X1p3", "x + 0x.8"})
+    EXPECT_NE(parseError({hex}, xy()).find("hexadecimal numbers are not accepted"),
+              std::string::npos)
+        << hex;
 }
 
 TEST(EmitParser, UnknownOutputsRepeatedOutputsAndOutOfRangeConstantsAreNamed) {

@@ -566,6 +566,14 @@ TEST(FuzzFormula, Regressions) {
   EXPECT_TRUE(formulaCase("B = " + std::string(50, '(') + "mu" + std::string(50, ')'), 1));
 }
 
+TEST(FuzzFormula, AuditRefusals) {
+  // Accepted silently before the hardening audit: hex numbers (read as 16 and 8), a constant
+  // beyond float32, an output assigned twice (the first dropped).
+  for (const std::string text : {"B = 0x10*mu", "B = 0x1p3 + r", "B = 1e39*mu", "B = mu; B = r"})
+    EXPECT_FALSE(formulaCase(text, 1)) << text;
+  EXPECT_TRUE(formulaCase("B = 16*mu + 8e-1", 1));
+}
+
 // `lgp run` as a user runs it: exit 0 with a non-empty front, or 1-2 with a message; never a
 // signal.
 TEST_F(Fuzz, CliRuns) {
