@@ -97,6 +97,9 @@ class _Parser:
         if self.peek() == ("op", "-"):
             self.take()
             return -self.unary()
+        if self.peek() == ("op", "+"):
+            self.take()
+            return self.unary()
         return self.power()
 
     def power(self):
