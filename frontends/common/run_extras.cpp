@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cstdio>
 
+#include "lgp/search/exhaustive.hpp"
+
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
@@ -39,6 +41,19 @@ Status enableArchiveMeasuredCost(Search& s) {
     return Status::error("/objectives/measured_cost/in_search: this build has no emit library");
   return Status::ok();
 #endif
+}
+
+Expected<nlohmann::json> runExhaustive(Search& s) {
+  if (s.config().search.exhaustive.max_ops <= 0) return nlohmann::json();
+  auto res = exhaustiveSearch(s.config(), s.table());
+  if (!res) return res.status();
+  std::vector<NamedProgram> seeds;
+  for (const auto& m : res->front)
+    seeds.push_back({"exhaustive " + std::to_string(m.ops) + " ops", m.program});
+  const auto skipped = s.addSeeds(seeds);
+  nlohmann::json cert = res->toJson(s.config(), s.table());
+  cert["seeded"] = seeds.size() - skipped.size();
+  return cert;
 }
 
 std::string addFrontExtras(nlohmann::json& front, const Search& s) {

@@ -21,6 +21,10 @@ Status checkRunReferences(const RunConfig& cfg, const Table& t);
 Expected<std::vector<NamedProgram>> referenceSeeds(const RunConfig& cfg, const Table& t);
 // objectives.measured_cost.in_search on `s` (a no-op when off).
 Status enableArchiveMeasuredCost(Search& s);
+// search.exhaustive on `s` (before initialize()): the enumeration's non-dominated members
+// seed the islands; returns the certificate for the front JSON ("exhaustive"), with
+// "seeded", or null when the config does not ask for it.
+Expected<nlohmann::json> runExhaustive(Search& s);
 // Adds "references" (scored on the run's table) and each member's measured GPU cost to a
 // front JSON made by frontToJson. Returns a line for the user: what was measured in how long,
 // or why nothing could be; empty when the config asks for no measured cost.

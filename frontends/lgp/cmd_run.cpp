@@ -162,6 +162,9 @@ int runMain(int argc, char** argv) {
     return fail("/search/seed_references: not available with two_step", 2);
   if (cfg->objectives.measured_cost.in_search && (two_step || distributed))
     return fail("/objectives/measured_cost/in_search: runs in one process with one step only", 2);
+  if (cfg->search.exhaustive.max_ops > 0 && (two_step || distributed))
+    return fail("/search/exhaustive: runs in one process with one step only", 2);
+  nlohmann::json exhaustive;  // the enumeration's certificate (search.exhaustive)
   std::unique_ptr<lgp::Search> single;
   std::unique_ptr<lgp::TwoStepSearch> stepped;
   if (two_step) {
@@ -183,6 +186,17 @@ int runMain(int argc, char** argv) {
     // A reference that does not fit the program shape is reported, not fatal.
     for (const auto& why : single->addSeeds(seeds))
       std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
+    if (!resume) {
+      auto cert = lgp::cli::runExhaustive(*single);
+      if (!cert) return fail(cert.error(), 2);
+      exhaustive = std::move(*cert);
+      if (!exhaustive.is_null() && !quiet)
+        std::fprintf(
+            stderr,
+            "lgp: exhaustive: %s expressions fitted in %.1f s, up to %d operators complete\n",
+            exhaustive["fitted"].dump().c_str(), exhaustive["seconds"].get<double>(),
+            exhaustive["complete_ops"].get<int>());
+    }
     g_search.store(single.get());
   }
   std::signal(SIGINT, onSigint);
@@ -298,6 +312,7 @@ int runMain(int argc, char** argv) {
   }
   auto j = lgp::frontToJson(search, front);
   if (!mpi_stats.is_null()) j["progress"]["mpi"] = mpi_stats;
+  if (!exhaustive.is_null()) j["exhaustive"] = exhaustive;
   // After Ctrl-C a launcher such as mpirun gives the process about a second: the front goes
   // to disk first (atomically), then is rewritten with the references and measured costs.
   if (g_interrupts.load() > 0)

@@ -159,7 +159,10 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
   if (two_step && cfg.objectives.measured_cost.in_search)
     valueError("/objectives/measured_cost/in_search: runs with one step only");
 
+  if (two_step && cfg.search.exhaustive.max_ops > 0)
+    valueError("/search/exhaustive: runs with one step only");
   PythonTicker ticker(progress, progress_interval);
+  nlohmann::json exhaustive;
   std::unique_ptr<lgp::Search> single;
   std::unique_ptr<lgp::TwoStepSearch> stepped;
   std::vector<std::string> warnings;
@@ -174,6 +177,15 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
     single = std::make_unique<lgp::Search>(cfg, std::move(table));
     if (auto st = lgp::cli::enableArchiveMeasuredCost(*single); !st) valueError(st.message());
     warnings = single->addSeeds(seeds);
+    {
+      py::gil_scoped_release nogil;
+      auto cert = lgp::cli::runExhaustive(*single);
+      if (!cert) {
+        py::gil_scoped_acquire gil;
+        valueError(cert.error());
+      }
+      exhaustive = std::move(*cert);
+    }
     auto* s = single.get();
     auto snapshot = [s] { return s->progress(); };
     auto stop = [s] { s->requestStop(); };
@@ -194,6 +206,7 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
     const auto members = search.front();
     if (!members.empty()) {
       front = lgp::frontToJson(search, members);
+      if (!exhaustive.is_null()) front["exhaustive"] = exhaustive;
       note = lgp::cli::addFrontExtras(front, search);
     }
   }

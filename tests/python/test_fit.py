@@ -265,3 +265,17 @@ def test_data_presets():
         lgp.data("nope")
     with pytest.raises(ValueError, match="size"):
         lgp.data("dfg", size=1)
+
+
+def test_exhaustive_certificate_in_the_front(grid):
+    # search.exhaustive: every expression of <= 4 operators over these ops is fitted first;
+    # the exact one seeds the search, and the front carries the certificate.
+    X, y = grid
+    front = lgp.fit(X, y, inputs=["x", "y"], ops=OPS, generations=3, threads=2,
+                    search={"exhaustive": {"max_ops": 4, "seconds": 300,
+                                           "ops": ["mul", "mad", "square", "exp2"]}})
+    cert = front.data["exhaustive"]
+    assert cert["complete_ops"] == 4 and cert["seeded"] >= 1
+    assert [b["max_ops"] for b in cert["best"]] == [1, 2, 3, 4]
+    assert cert["best"][3]["error"] < 1e-6 and cert["best"][2]["error"] > 1e-3
+    assert front.best().error < 1e-6  # three generations: the seed did it

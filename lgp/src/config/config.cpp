@@ -361,6 +361,29 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
   o.finish();
 }
 
+void parseExhaustive(const nlohmann::json& j, ExhaustiveConfig& c) {
+  Obj o(j, "/search/exhaustive");
+  o.integer("max_ops", c.max_ops, 0, 6);
+  if (o.has("ops")) {
+    const auto& v = o.at("ops");
+    if (!v.is_array() || v.empty())
+      fail("/search/exhaustive/ops", "must be a non-empty array of operator names");
+    c.ops.clear();
+    std::set<Op> seen;
+    for (size_t i = 0; i < v.size(); ++i) {
+      const Op op = parseOp(v[i], jsonPath(o.path("ops"), i));
+      if (arity(op) > 3)
+        fail(jsonPath(o.path("ops"), i), "select is not enumerated (four operands)");
+      if (seen.insert(op).second) c.ops.push_back(op);
+    }
+  }
+  o.integer("constants", c.constants, 0, 8);
+  o.number("seconds", c.seconds, 0, 1e9, true);
+  o.integer("screen_rows", c.screen_rows, 16, 1 << 24);
+  o.integer("keep", c.keep, 1, 1 << 20);
+  o.finish();
+}
+
 void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   Obj o(j, "/search");
   o.integer("population", s.population, 4, 1 << 20);
@@ -378,6 +401,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
   if (o.has("refine")) parseNm(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
+  if (o.has("exhaustive")) parseExhaustive(o.at("exhaustive"), s.exhaustive);
   o.finish();
 }
 
@@ -689,7 +713,19 @@ nlohmann::json toJson(const RunConfig& c) {
              {{"max_size", s.archive.max_size},
               {"eps_log10_error", s.archive.eps_log10_error},
               {"eps_cost", s.archive.eps_cost},
-              {"eps_discontinuity", s.archive.eps_discontinuity}}}}},
+              {"eps_discontinuity", s.archive.eps_discontinuity}}},
+            {"exhaustive",
+             {{"max_ops", s.exhaustive.max_ops},
+              {"ops",
+               [&] {
+                 nlohmann::json a = nlohmann::json::array();
+                 for (Op op : s.exhaustive.ops) a.push_back(std::string(opName(op)));
+                 return a;
+               }()},
+              {"constants", s.exhaustive.constants},
+              {"seconds", s.exhaustive.seconds},
+              {"screen_rows", s.exhaustive.screen_rows},
+              {"keep", s.exhaustive.keep}}}}},
           {"eval", {{"block_size", c.eval.block_size}}},
           {"output",
            {{"front_json", c.output.front_json},

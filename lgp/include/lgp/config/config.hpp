@@ -140,6 +140,17 @@ struct IslandConfig {
   Status validate() const;
 };
 
+// Exhaustive enumeration of small expressions before the search (search/exhaustive.hpp): the
+// results seed the islands and the front JSON gets their certificate ("exhaustive").
+struct ExhaustiveConfig {
+  int max_ops = 0;        // operators per expression, 1..6; 0 = off
+  std::vector<Op> ops;    // operators (arity <= 3); empty = program.ops
+  int constants = 2;      // free constants per expression, 0..8
+  double seconds = 60;    // budget; sizes not finished by then are reported incomplete
+  int screen_rows = 256;  // rows of the screening fit (every row for smaller tables)
+  int keep = 64;          // per operator count, screened expressions refitted on every row
+};
+
 struct SearchConfig {
   int population = 400;          // individuals per generation, all islands together
   int generations = 100;         // budget; 0 = unlimited (then another budget must be set)
@@ -159,6 +170,7 @@ struct SearchConfig {
   VariationConfig variation;
   NelderMeadSchedule refine;
   ArchiveConfig archive;
+  ExhaustiveConfig exhaustive;
 };
 
 struct EvalConfig {

@@ -1,0 +1,54 @@
+// Exhaustive enumeration of small programs (search.exhaustive), after Bartlett, Desmond and
+// Ferreira, "Exhaustive Symbolic Regression" (IEEE TEVC 2024): every distinct expression of up
+// to `max_ops` operators over the run's inputs and free constants is built, its constants are
+// fitted, and the best per operator count and the non-dominated ones are kept. They seed the
+// islands, and the front JSON gets a certificate: within this grammar, no expression of at
+// most k operators does better than the error stated for k (up to the constant fit, which is
+// local: Levenberg-Marquardt, then the run's error on the whole table).
+//
+// Enumeration. Expression trees by operator count s: leaves (each input, and a free constant
+// `c`) for s = 0; an operator over trees whose operator counts sum to s - 1. Pruned as
+// redundant within the grammar (each prune keeps an equivalent expression of no more
+// operators): an operator whose operands are all constants (a constant), the second
+// commutative operand ordered before the first (add, mul, min, max, mad's product), min/max/
+// sub/div of two equal operands. Distinct trees are told apart by a canonical text; a tree
+// becomes a program by common-subexpression elimination, so a repeated sub-tree costs one
+// opcode. Screening: constants fitted on a row subset (from +1, 8 iterations), the best `keep`
+// per operator count go on to the fit on every row (from the screened constants, +1 and -1).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lgp/config/config.hpp"
+#include "lgp/core/program.hpp"
+#include "lgp/core/table.hpp"
+#include "lgp/eval/objectives.hpp"
+
+namespace lgp {
+
+struct ExhaustiveMember {
+  Program program;  // one output, Last mode, linear scaling applied when the run uses it
+  Objectives obj;   // on the run's table, as the search scores
+  int ops = 0;      // operators of the expression
+  std::string formula;
+};
+
+struct ExhaustiveResult {
+  std::vector<ExhaustiveMember> best_by_ops;  // [k]: the lowest error with <= k operators
+  std::vector<ExhaustiveMember> front;        // non-dominated in (error, cost, discontinuity)
+  std::vector<uint64_t> enumerated;           // [k]: distinct expressions with exactly k ops
+  uint64_t fitted = 0;                        // constant fits on every row
+  int complete_ops = -1;  // every expression of <= this many operators was fitted
+  double seconds = 0;
+  // The certificate for the front JSON ("exhaustive"): grammar, counts, best per k.
+  nlohmann::json toJson(const RunConfig& cfg, const Table& t) const;
+};
+
+// Runs the enumeration of cfg.search.exhaustive on `t` (one output). Errors name the field.
+Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t);
+
+}  // namespace lgp

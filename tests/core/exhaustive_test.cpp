@@ -1,0 +1,118 @@
+// search.exhaustive: the enumeration's counts, its recovery of a small formula, its certificate
+// and its config errors.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+
+#include "lgp/config/config.hpp"
+#include "lgp/search/exhaustive.hpp"
+
+namespace {
+
+using namespace lgp;
+
+Table table(int n, const std::function<double(double, double)>& f) {
+  Table t;
+  t.input_names = {"x", "y"};
+  t.output_names = {"f"};
+  t.inputs.resize(2);
+  t.outputs.resize(1);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double x = (i + 0.5) / n, y = (j + 0.5) / n;
+      t.inputs[0].push_back(x);
+      t.inputs[1].push_back(y);
+      t.outputs[0].push_back(f(x, y));
+    }
+  return t;
+}
+
+RunConfig config(std::vector<Op> ops, int max_ops) {
+  RunConfig c;
+  c.data.path = "t.csv";
+  c.program.ops = ops;
+  c.search.threads = 2;
+  c.search.exhaustive.max_ops = max_ops;
+  c.search.exhaustive.ops = std::move(ops);
+  return c;
+}
+
+TEST(Exhaustive, CountsOneOperatorExpressionsExactly) {
+  // Leaves x, y and a free constant c. add and mul: unordered pairs, not both constants:
+  // (c,x) (c,y) (x,x) (x,y) (y,y) = 5 each. sub: ordered pairs, not both constants, not
+  // x - x or y - y: 9 - 1 - 2 = 6. neg: of x or y (neg c is a constant) = 2.
+  const Table t = table(8, [](double x, double y) { return x + y; });
+  auto r = exhaustiveSearch(config({Op::Add, Op::Mul, Op::Sub, Op::Neg}, 1), t);
+  ASSERT_TRUE(r) << r.error();
+  ASSERT_EQ(r->enumerated.size(), 2u);
+  EXPECT_EQ(r->enumerated[1], 5u + 5u + 6u + 2u);
+  EXPECT_EQ(r->complete_ops, 1);
+  // x + y is among them: found exactly.
+  EXPECT_LT(r->best_by_ops[1].obj.error, 1e-7);
+}
+
+TEST(Exhaustive, RecoversExp2OfAQuadraticAtFourOperatorsAndNotBefore) {
+  const Table t = table(16, [](double x, double y) { return std::exp2(-7 * x - 4 * y * y); });
+  auto r = exhaustiveSearch(config({Op::Add, Op::Mul, Op::Mad, Op::Square, Op::Exp2}, 4), t);
+  ASSERT_TRUE(r) << r.error();
+  ASSERT_EQ(r->complete_ops, 4);
+  // exp2(mad(x, c, c * y^2)) needs square, mul, mad and exp2.
+  EXPECT_LT(r->best_by_ops[4].obj.error, 1e-6) << r->best_by_ops[4].formula;
+  EXPECT_GT(r->best_by_ops[3].obj.error, 1e-3) << r->best_by_ops[3].formula;
+  // The best error never grows with the operator budget, and the front is sorted by cost.
+  for (size_t k = 2; k < r->best_by_ops.size(); ++k)
+    EXPECT_LE(r->best_by_ops[k].obj.error, r->best_by_ops[k - 1].obj.error);
+  for (size_t i = 1; i < r->front.size(); ++i) {
+    EXPECT_LE(r->front[i - 1].obj.cost, r->front[i].obj.cost);
+    EXPECT_GT(r->front[i - 1].obj.error, r->front[i].obj.error);
+  }
+  const auto j = r->toJson(config({Op::Mul, Op::Mad, Op::Square, Op::Exp2}, 4), t);
+  EXPECT_EQ(j["complete_ops"], 4);
+  ASSERT_EQ(j["best"].size(), 4u);
+  EXPECT_EQ(j["best"][3]["max_ops"], 4);
+  EXPECT_TRUE(j["best"][3]["complete"].get<bool>());
+}
+
+TEST(Exhaustive, ATimeBudgetLeavesTheRestIncomplete) {
+  const Table t = table(16, [](double x, double y) { return std::exp2(-7 * x - 4 * y * y); });
+  RunConfig c = config({Op::Add, Op::Sub, Op::Mul, Op::Div, Op::Mad, Op::Exp2, Op::Log2}, 5);
+  c.search.exhaustive.seconds = 0.5;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = exhaustiveSearch(c, t);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(r) << r.error();
+  // The budget stops the enumeration too, not only the fits (a generous bound: the point is
+  // that level 5, about 10^10 combinations, is never walked).
+  EXPECT_LT(secs, 30.0);
+  EXPECT_LT(r->complete_ops, 5);
+  const auto j = r->toJson(c, t);
+  EXPECT_EQ(j["complete_ops"], r->complete_ops);
+}
+
+TEST(Exhaustive, ConfigErrorsNameTheField) {
+  auto parse = [](const char* text) { return parseRunConfig(nlohmann::json::parse(text), "."); };
+  auto bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"max_ops": 7}}})");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/exhaustive/max_ops"), std::string::npos) << bad.error();
+  bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"ops": ["select"]}}})");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/exhaustive/ops/0"), std::string::npos) << bad.error();
+  bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"maxops": 2}}})");
+  ASSERT_FALSE(bad);
+  EXPECT_NE(bad.error().find("/search/exhaustive/maxops"), std::string::npos) << bad.error();
+  auto good = parse(
+      R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"max_ops": 3, "ops": ["add"]}}})");
+  ASSERT_TRUE(good) << good.error();
+  EXPECT_EQ(toJson(*good)["search"]["exhaustive"]["max_ops"], 3);
+
+  Table two = table(4, [](double x, double) { return x; });
+  two.output_names.push_back("g");
+  two.outputs.push_back(two.outputs[0]);
+  auto r = exhaustiveSearch(config({Op::Add}, 1), two);
+  ASSERT_FALSE(r);
+  EXPECT_NE(r.error().find("/search/exhaustive: one output only"), std::string::npos);
+}
+
+}  // namespace
