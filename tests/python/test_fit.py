@@ -267,7 +267,7 @@ def test_data_presets():
         lgp.data("dfg", size=1)
 
 
-def test_exhaustive_certificate_in_the_front(grid):
+def test_exhaustive_certificate_in_the_front(grid, tmp_path):
     # search.exhaustive: every expression of <= 4 operators over these ops is fitted first;
     # the exact one seeds the search, and the front carries the certificate.
     X, y = grid
@@ -279,3 +279,14 @@ def test_exhaustive_certificate_in_the_front(grid):
     assert [b["max_ops"] for b in cert["best"]] == [1, 2, 3, 4]
     assert cert["best"][3]["error"] < 1e-6 and cert["best"][2]["error"] > 1e-3
     assert front.best().error < 1e-6  # three generations: the seed did it
+    # `lgp front` prints the certificate; a control character in a recorded formula (a
+    # tampered file) is never printed.
+    cli = os.environ.get("LGP_CLI")
+    if cli:
+        path = tmp_path / "f.json"
+        front.data["exhaustive"]["best"][0]["formula"] = "f = x\x1b[2J"
+        front.save(path)
+        out = subprocess.run([cli, "front", str(path)], capture_output=True, text=True,
+                             check=True).stdout
+        assert "exhaustive enumeration" in out and "<= 4 ops: error" in out
+        assert "<= 1 ops" not in out and "\x1b" not in out

@@ -425,6 +425,24 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
     for (size_t j = 0; j < st.size(); ++j)
       os << metrics(st[j].output, j == 0) << st[j].name << " = " << st[j].expr << "\n";
   }
+  // The certificate of search.exhaustive: the best error per operator count, as recorded (a
+  // malformed or hostile entry is skipped, not printed).
+  if (const auto it = front.find("exhaustive"); it != front.end() && it->is_object()) {
+    const auto best = it->value("best", nlohmann::json::array());
+    if (best.is_array() && !best.empty()) os << "exhaustive enumeration (search.exhaustive):\n";
+    for (const auto& b : best) {
+      if (!b.is_object() || !b.value("max_ops", nlohmann::json()).is_number_integer() ||
+          !b.value("formula", nlohmann::json()).is_string())
+        continue;
+      const std::string formula = b["formula"].get<std::string>();
+      if (!controlCharacterReason(formula).empty()) continue;
+      const auto e = b.value("error", nlohmann::json());
+      std::snprintf(buf, sizeof buf, "  <= %d ops: error %s%s  ", b["max_ops"].get<int>(),
+                    e.is_number() ? fmt(e.get<double>()).c_str() : "-",
+                    b.value("complete", false) ? "" : " (incomplete)");
+      os << buf << formula << "\n";
+    }
+  }
   return os.str();
 }
 
