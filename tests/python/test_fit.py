@@ -290,3 +290,13 @@ def test_exhaustive_certificate_in_the_front(grid, tmp_path):
                              check=True).stdout
         assert "exhaustive enumeration" in out and "<= 4 ops: error" in out
         assert "<= 1 ops" not in out and "\x1b" not in out
+
+
+def test_html_view_escapes_names():
+    g = np.linspace(0, 1, 8)
+    X = np.stack([g, g[::-1]], axis=1)
+    front = lgp.fit(X, X[:, 0] * 2, inputs=["<img src=x onerror=alert(1)>", "b"],
+                    outputs=["y"], generations=5, threads=1)
+    page = front._repr_html_()
+    assert "<img" not in page and "&lt;img" in page
+    assert page.count("<tr>") == len(front) + 1

@@ -6,6 +6,7 @@ Predictions run the engine's float32 interpreter and code comes from the same em
 ``lgp emit``.
 """
 
+import html
 import json
 import math
 import os
@@ -240,6 +241,20 @@ class Front:
             err = m.error if math.isfinite(m.error) else float("nan")
             lines.append(f"  {m.index:3d}  cost {m.cost:7.3g}  error {err:.4g}  {m.formula}")
         return "\n".join(lines)
+
+    def _repr_html_(self):
+        """The front as an HTML table, for notebooks (every text escaped: column names are
+        data)."""
+        head = "".join(f"<th>{h}</th>" for h in ("#", "cost", "error", "discontinuity",
+                                                  "formula"))
+        rows = "".join(
+            f"<tr><td>{m.index}</td><td>{m.cost:g}</td><td>{m.error:.4g}</td>"
+            f"<td>{m.discontinuity:g}</td><td><code>{html.escape(m.formula)}</code></td></tr>"
+            for m in self.members)
+        caption = html.escape(f"{len(self)} members; inputs {', '.join(self.inputs)}; "
+                              f"outputs {', '.join(self.outputs)}")
+        return (f"<table><caption>{caption}</caption><thead><tr>{head}</tr></thead>"
+                f"<tbody>{rows}</tbody></table>")
 
     def __getstate__(self):
         return {"data": self.data, "source": self.source, "interrupted": self.interrupted}
