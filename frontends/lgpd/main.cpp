@@ -10,6 +10,9 @@
 //
 // SIGINT/SIGTERM: the server stops, every running job checkpoints and stays "running", and
 // the next lgpd resumes it. After a kill -9 the next lgpd resumes from the last checkpoint.
+//
+// One lgpd per data dir: a second one on the same dir exits 1 naming the first one's PID
+// (data_dir_lock.hpp).
 #include <csignal>
 #include <cstdio>
 #include <fstream>
@@ -22,6 +25,7 @@
 
 #include "api.hpp"
 #include "daemon_config.hpp"
+#include "data_dir_lock.hpp"
 #include "files.hpp"
 #include "http_server.hpp"
 #include "jobs.hpp"
@@ -93,6 +97,12 @@ int run(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 
+  // Before the database is opened or a run resumed: a second daemon on this dir stops here.
+  auto dir_lock = lgpd::DataDirLock::acquire(cfg.data_dir);
+  if (!dir_lock) {
+    std::fprintf(stderr, "error: %s\n", dir_lock.error().c_str());
+    return 1;
+  }
   auto store = lgpd::Store::open(cfg.data_dir, args.count("init") > 0);
   if (!store) {
     std::fprintf(stderr, "error: %s\n", store.error().c_str());
