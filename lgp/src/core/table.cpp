@@ -314,6 +314,7 @@ Status writeCsv(const Table& t, const std::filesystem::path& path) {
     }
     out << "\n";
   }
+  out.close();  // a full disk shows when the last buffer is written
   if (!out) return Status::error(path.string() + ": write failed");
   return Status::ok();
 }
