@@ -69,7 +69,8 @@ TEST_F(ApiTest, SubmitStatusFrontCodeResiduals) {
   // The run's counters are the final front's.
   EXPECT_EQ(run["evaluations"], f["progress"]["evaluations"]);
   EXPECT_EQ(run["generation"], f["progress"]["generation"]);
-  EXPECT_NEAR(run["elapsed_s"].get<double>(), f["progress"]["elapsed_s"].get<double>(), 0.5);
+  // (The front is built, with its members' measured costs, just before the final counters.)
+  EXPECT_GE(run["elapsed_s"].get<double>(), f["progress"]["elapsed_s"].get<double>());
   const size_t last = f["members"].size() - 1;
 
   Reply member = d.get("/api/v1/runs/" + id + "/front/" + std::to_string(last));
