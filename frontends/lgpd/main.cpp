@@ -29,6 +29,7 @@
 #include "files.hpp"
 #include "http_server.hpp"
 #include "jobs.hpp"
+#include "lgp/core/data_roots.hpp"
 #include "omp_env.hpp"
 #include "store.hpp"
 
@@ -88,6 +89,13 @@ int run(int argc, char** argv) {
     return 2;
   }
   auto addr = lgpd::parseListen(cfg.listen);
+  if (!cfg.allowed_data_dirs.empty()) {
+    // Every table and scene reader of this process checks the file it opened (not only its
+    // path) against these; inline tables are lgpd's own files under tables/.
+    auto roots = cfg.allowed_data_dirs;
+    roots.push_back(cfg.data_dir / "tables");
+    lgp::setDataRoots(roots);
+  }
 
   // Signals are taken by one thread with sigwait; every other thread has them blocked.
   sigset_t sigs;
