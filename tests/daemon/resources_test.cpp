@@ -248,6 +248,14 @@ TEST(Bounds, PopulationBeyondTheMemoryBoundGets400) {
   EXPECT_EQ(r.j().value("field", ""), "/search/population") << r.body;
   EXPECT_NE(r.body.find("max_run_memory_mb"), std::string::npos) << r.body;
 
+  // Islands weigh more than these short programs: the message names them.
+  cfg = runConfig(table, 1, 16384);
+  cfg["program"] = {{"max_length", 12}, {"constants", 0}};
+  cfg["search"]["islands"] = {{"count", 4096}};
+  EXPECT_TRUE(d.submit(cfg, &r).empty());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/islands/count") << r.body;
+
   cfg = runConfig(table, 1, 64);
   const std::string id = d.submit(cfg, &r);
   EXPECT_FALSE(id.empty()) << r.body;
