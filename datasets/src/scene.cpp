@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/data_roots.hpp"
 #include "lgp/core/table.hpp"
 
 namespace lgp::datasets {
@@ -406,7 +407,7 @@ Expected<Scene> parseScene(const json& j, const std::string& origin) {
 }
 
 Expected<Scene> loadScene(const std::filesystem::path& path) {
-  auto text = readInputFile(path, kMaxSceneFileBytes);
+  auto text = readDataFile(path, kMaxSceneFileBytes);  // inside lgpd's allowed_data_dirs
   if (!text) return text.status();
   auto j = parseJson(*text);
   if (!j) return Status::error(path.string() + ": " + j.error());

@@ -11,16 +11,11 @@
 #include "commands.hpp"
 #include "lgp/datasets/generate.hpp"
 #include "lgp/datasets/scene.hpp"
+#include "lgp/io/result.hpp"
 
 namespace {
 namespace fs = std::filesystem;
 namespace ds = lgp::datasets;
-
-bool writeText(const fs::path& p, const std::string& text) {
-  std::ofstream o(p, std::ios::binary);
-  o << text;
-  return static_cast<bool>(o);
-}
 
 int dataMain(int argc, char** argv) {
   cxxopts::Options opts(argv[0], "Generate a ground-truth table from a scene JSON.");
@@ -83,12 +78,12 @@ int dataMain(int argc, char** argv) {
     nlohmann::json meta = table.table.meta;
     meta["table_file"] = out.filename().string();
     meta["max_estimated_error_by_entry"] = "see the JSON form (lgp data without --csv)";
-    if (!writeText(out.string() + ".meta.json", meta.dump(2) + "\n")) {
-      std::fprintf(stderr, "error: %s.meta.json: write failed\n", out.c_str());
+    if (auto st = lgp::writeTextAtomic(meta.dump(2) + "\n", out.string() + ".meta.json"); !st) {
+      std::fprintf(stderr, "error: %s\n", st.message().c_str());
       return 1;
     }
-  } else if (!writeText(out, ds::toTableJson(table).dump() + "\n")) {
-    std::fprintf(stderr, "error: %s: write failed\n", out.c_str());
+  } else if (auto st = lgp::writeTextAtomic(ds::toTableJson(table).dump() + "\n", out); !st) {
+    std::fprintf(stderr, "error: %s\n", st.message().c_str());
     return 1;
   }
   std::vector<fs::path> plots;

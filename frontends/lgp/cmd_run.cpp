@@ -142,6 +142,10 @@ int runMain(int argc, char** argv) {
   if (auto st = lgp::cli::checkRunReferences(*cfg, *table); !st) return fail(st.message(), 2);
   const bool quiet = args.count("quiet") > 0 || !root;
   const bool tty = isatty(fileno(stderr));
+  if (cfg->search.threads > lgp::Search::maxThreads() && root)
+    std::fprintf(stderr,
+                 "warning: /search/threads: %d capped at the %d cores this process may use\n",
+                 cfg->search.threads, lgp::Search::maxThreads());
   if (!quiet) {
     std::fprintf(stderr, "lgp: %zu rows, inputs [%zu], outputs [%zu], population %d, seed %llu",
                  table->rows(), table->numInputs(), table->numOutputs(), cfg->search.population,
@@ -205,12 +209,16 @@ int runMain(int argc, char** argv) {
   std::signal(SIGUSR1, onSigint);
   int current_step = 0;
   bool status_failed = false;
+  // The last write of the status file and of the checkpoint must succeed: a run that ends with
+  // either one stale (a full disk) exits 1 after writing its front.
+  std::string status_error, checkpoint_error;
   nlohmann::json mpi_stats;  // rank 0 of an MPI run: time in MPI calls per rank
   auto progress = [&](const lgp::SearchProgress& p) {
     if (!status_path.empty() && root) {
       auto st = lgp::writeJsonAtomic(lgp::progressToJson(p), status_path, 2);
       if (!st && !status_failed) std::fprintf(stderr, "warning: %s\n", st.message().c_str());
       status_failed = !st;
+      status_error = st ? "" : st.message();
     }
     if (quiet) return;
     std::string levels;
@@ -249,6 +257,7 @@ int runMain(int argc, char** argv) {
       auto st = lgp::writeCheckpointFile(single->checkpoint(), ck_path);
       if (!st && !ck_failed) std::fprintf(stderr, "\nwarning: %s\n", st.message().c_str());
       ck_failed = !st;
+      checkpoint_error = st ? "" : st.message();
     };
     auto last_progress = Clock::now(), last_checkpoint = Clock::now();
     if (!resume) single->initialize();
@@ -344,6 +353,9 @@ int runMain(int argc, char** argv) {
                  "of the run)\n",
                  static_cast<unsigned long long>(p.cost_measurements), p.cost_measure_s,
                  p.elapsed_s > 0 ? 100 * p.cost_measure_s / p.elapsed_s : 0.0);
+  if (!checkpoint_error.empty())
+    return fail("the last checkpoint was not written: " + checkpoint_error, 1);
+  if (!status_error.empty()) return fail("the last status was not written: " + status_error, 1);
   return g_interrupts.load() > 0 ? 130 : 0;
 }
 

@@ -507,7 +507,12 @@ class Api {
       return sendError(res, 400, std::string("invalid run config: ") + e.what());
     }
     if (!prepared) return sendError(res, 400, prepared.error(), fieldOf(prepared.error()));
-    auto id = jobs_.submit(std::move(*prepared));
+    bool queue_full = false;
+    auto id = jobs_.submit(std::move(*prepared), &queue_full);
+    if (queue_full) {
+      res.set_header("Retry-After", std::to_string(kQueueRetryAfterS));
+      return sendError(res, 429, id.error());
+    }
     if (!id) return sendError(res, 500, "store error: " + id.error());
     res.set_header("Location", "/api/v1/runs/" + *id);
     sendJson(res, 201, {{"id", *id}, {"status", "queued"}, {"url", "/api/v1/runs/" + *id}});
@@ -550,7 +555,9 @@ class Api {
     if (!r) return;
     if (r->status != RunStatus::Queued && r->status != RunStatus::Running)
       return sendError(res, 409, "run " + id + " is already " + std::string(toString(r->status)));
-    bool active = jobs_.cancel(id);
+    auto cancelled = jobs_.cancel(id);
+    if (!cancelled) return sendError(res, 500, "store error: " + cancelled.error());
+    const bool active = *cancelled;
     auto after = loadRun(id, res);
     if (!after) return;
     std::string status(toString(after->status));

@@ -1,6 +1,7 @@
 #include "daemon_config.hpp"
 
 #include <arpa/inet.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -14,6 +15,13 @@ namespace lgpd {
 
 using lgp::Expected;
 using lgp::Status;
+
+uint64_t DaemonConfig::runMemoryBytes() const {
+  if (max_run_memory_mb > 0) return static_cast<uint64_t>(max_run_memory_mb) << 20;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  if (pages <= 0 || page <= 0) return uint64_t{1} << 32;  // unknown: 4 GiB
+  return static_cast<uint64_t>(pages) * static_cast<uint64_t>(page) / 2;
+}
 
 Status DaemonConfig::validate() const {
   if (data_dir.empty()) return Status::error("/data_dir: required (--data-dir)");
@@ -44,6 +52,9 @@ Status DaemonConfig::validate() const {
       return Status::error(std::string("/") + key + ": must be a number in [" +
                            lgp::formatDouble(lo) + ", " + lgp::formatDouble(hi) + "] (got " +
                            lgp::formatDouble(v) + ")");
+  if (max_queued_runs < 1 || max_queued_runs > 1000000)
+    return Status::error("/max_queued_runs: must be in [1, 1000000]");
+  if (max_run_memory_mb < 0) return Status::error("/max_run_memory_mb: must be >= 0");
   if (keep_alive_max_requests < 1 || keep_alive_max_requests > 100000)
     return Status::error("/keep_alive_max_requests: must be in [1, 100000]");
   auto addr = parseListen(listen);
@@ -287,6 +298,8 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
               "keep_alive_max_requests",
               "allowed_hosts",
               "allowed_origins",
+              "max_queued_runs",
+              "max_run_memory_mb",
               "mpi"});
   if (auto k = keys.unknownKey()) return Status::error(lgp::jsonError(*k, "unknown key"));
   Status s;
@@ -303,6 +316,18 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
   if (!(s = field(j, "max_jobs", [&](auto& v, auto p) {
           auto r = integer(v, p, 1, i);
           if (r) cfg.max_jobs = static_cast<int>(std::min<int64_t>(i, 1 << 20));
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "max_queued_runs", [&](auto& v, auto p) {
+          auto r = integer(v, p, 1, i);
+          if (r) cfg.max_queued_runs = static_cast<int>(std::min<int64_t>(i, 1 << 30));
+          return r;
+        })))
+    return s;
+  if (!(s = field(j, "max_run_memory_mb", [&](auto& v, auto p) {
+          auto r = integer(v, p, 0, i);
+          if (r) cfg.max_run_memory_mb = i;
           return r;
         })))
     return s;

@@ -56,14 +56,26 @@ struct DaemonConfig {
   // Origins ("http://name:port") whose POST and DELETE requests are accepted besides the
   // daemon's own (an Origin naming the same host and port as the Host header).
   std::vector<std::string> allowed_origins;
+  // Runs waiting in the queue at most; past it POST /api/v1/runs answers 429 with
+  // Retry-After (kQueueRetryAfterS).
+  int max_queued_runs = 64;
+  // The memory a run's search may need (an estimate from population and program shape,
+  // estimateSearchBytes), in MiB; a submission above it gets a 400 naming /search/population.
+  // 0 = half the machine's physical memory.
+  int64_t max_run_memory_mb = 0;
   MpiDaemonConfig mpi;
 
+  // max_run_memory_mb in bytes, with the default filled in.
+  uint64_t runMemoryBytes() const;
   // max_connections_per_client with the default filled in.
   int connectionsPerClient() const;
 
   // Checks every field; the message names the JSON key.
   lgp::Status validate() const;
 };
+
+// Seconds a 429 for a full queue asks the client to wait.
+inline constexpr int kQueueRetryAfterS = 30;
 
 // "host:port" split; port must be 0..65535. IPv6 hosts are written in brackets: "[::1]:8737".
 struct ListenAddress {

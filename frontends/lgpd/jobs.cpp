@@ -7,11 +7,14 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <random>
+#include <system_error>
 #include <thread>
 
 #include <sys/wait.h>
@@ -148,6 +151,16 @@ Status JobManager::checkDataPath(const fs::path& p) const {
   return Status::error("is outside the daemon's allowed_data_dirs");
 }
 
+Status JobManager::checkDataPaths(const lgp::RunConfig& cfg) const {
+  for (auto [key, p] : {std::pair{"path", &cfg.data.path}, std::pair{"scene", &cfg.data.scene}}) {
+    if (p->empty()) continue;
+    fs::path abs = fs::path(*p).is_relative() ? cfg.base_dir / *p : fs::path(*p);
+    if (auto s = checkDataPath(abs); !s)
+      return Status::error(std::string("/data/") + key + ": " + abs.string() + " " + s.message());
+  }
+  return Status::ok();
+}
+
 Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   if (!submission.is_object()) return Status::error("/: the run config must be a JSON object");
   json j = submission;
@@ -191,6 +204,7 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   }
   auto cfg = lgp::parseRunConfig(j, cfg_.data_base_dir);
   if (!cfg) return cfg.status();
+  if (auto s = checkSearchMemory(*cfg, cfg_.runMemoryBytes()); !s) return s;
   if (cfg->mpi.np > 0) {
     if (cfg->mpi.np > cfg_.mpi.max_np)
       return Status::error("/mpi/np: must be in [1, " + std::to_string(cfg_.mpi.max_np) +
@@ -255,8 +269,21 @@ Status JobManager::resolveInlineTable(const RunRecord& run) const {
   return Status::ok();
 }
 
-Expected<std::string> JobManager::submit(PreparedRun run) {
-  if (auto s = store_.insertRun(run.record); !s) return s;
+Expected<std::string> JobManager::submit(PreparedRun run, bool* queue_full) {
+  if (queue_full) *queue_full = false;
+  {
+    // Counted and inserted under one lock, so that concurrent submissions cannot overshoot.
+    std::lock_guard lock(submit_mutex_);
+    auto queued = store_.queuedRuns();
+    if (!queued) return queued.status();
+    if (static_cast<int>(queued->size()) >= cfg_.max_queued_runs) {
+      if (queue_full) *queue_full = true;
+      return Status::error("the queue is full: " + std::to_string(queued->size()) +
+                           " runs are waiting (this lgpd's max_queued_runs is " +
+                           std::to_string(cfg_.max_queued_runs) + "); submit again later");
+    }
+    if (auto s = store_.insertRun(run.record); !s) return s;
+  }
   if (auto s = resolveInlineTable(run.record); !s)
     spdlog::warn("run {}: {}", run.record.id, s.message());
   { std::lock_guard lock(mutex_); }
@@ -270,8 +297,11 @@ Expected<JobManager::TablePtr> JobManager::loadTable(const RunRecord& run) const
   auto cfg = config(run);
   if (!cfg) return cfg.status();
   if (auto s = resolveInlineTable(run); !s) return s;
-  if (!run.inline_table)
+  if (!run.inline_table) {
+    // The file may have been replaced (by a link to a file outside) since submit.
+    if (auto s = checkDataPaths(*cfg); !s) return s;
     if (auto s = checkDataFiles(*cfg); !s) return s;
+  }
   auto t = lgp::cli::loadRunTable(*cfg);
   if (!t) return t.status();
   return TablePtr(std::make_shared<const lgp::Table>(std::move(*t)));
@@ -459,7 +489,7 @@ void JobManager::launch(const std::string& id, bool resume) {
   Job* raw = job.get();
   jobs_[id] = std::move(job);
   (void)resume;  // a checkpoint, when present, is always used
-  raw->thread = std::thread([this, raw] { runJob(*raw); });
+  if (!startJobThread(*raw)) jobs_.erase(id);
 }
 
 void JobManager::schedulerLoop() {
@@ -495,12 +525,49 @@ void JobManager::schedulerLoop() {
       job->id = id;
       Job* raw = job.get();
       jobs_[id] = std::move(job);
-      raw->thread = std::thread([this, raw] { runJob(*raw); });
+      if (!startJobThread(*raw)) jobs_.erase(id);
     }
   }
 }
 
+bool JobManager::startJobThread(Job& job) {
+  try {
+    job.thread = std::thread([this, &job] { runJob(job); });
+    return true;
+  } catch (const std::system_error& e) {
+    // No thread for the job: the run fails, the daemon goes on.
+    const std::string msg = std::string("cannot start the job's thread: ") + e.what();
+    spdlog::error("run {} failed: {}", job.id, msg);
+    if (auto s = store_.failRun(job.id, msg); !s) spdlog::error("run {}: {}", job.id, s.message());
+    return false;
+  }
+}
+
 namespace {
+
+// Starts `n` - 1 threads (the job thread is the n-th) and joins them: a machine at its
+// thread or memory limit says so here, as a std::system_error, and the run fails with a
+// message. LGPD_TEST_THREAD_LIMIT=K (for tests) makes the K+1-th start fail the same way,
+// as a machine whose limit is K threads would.
+Status probeThreads(int n) {
+  int limit = -1;
+  if (const char* v = std::getenv("LGPD_TEST_THREAD_LIMIT")) limit = std::atoi(v);
+  std::vector<std::thread> started;
+  std::string why;
+  try {
+    for (int i = 1; i < n; ++i) {
+      if (limit >= 0 && i > limit)
+        throw std::system_error(EAGAIN, std::generic_category(), "thread limit reached");
+      started.emplace_back([] {});
+    }
+  } catch (const std::system_error& e) {
+    why = e.what();
+  }
+  for (auto& t : started) t.join();
+  if (why.empty()) return Status::ok();
+  return Status::error("cannot start the search's " + std::to_string(n) + " threads (started " +
+                       std::to_string(started.size() + 1) + "): " + why + "; lower search.threads");
+}
 
 RunCounters countersOf(const lgp::SearchProgress& p, const json& best) {
   RunCounters c;
@@ -571,10 +638,13 @@ void JobManager::runJob(Job& job) {
     auto cfg = config(run);
     if (!cfg) return fail(cfg.error());
     if (auto s = resolveInlineTable(run); !s) return fail(s.message());
-    // Submit checked the files; they may have changed since (and a FIFO must never be opened
-    // in a way that blocks).
-    if (!run.inline_table)
+    // Submit checked the files; they may have changed since (a FIFO must never be opened in
+    // a way that blocks), and a file inside allowed_data_dirs may have been replaced by a
+    // link to one outside.
+    if (!run.inline_table) {
+      if (auto s = checkDataPaths(*cfg); !s) return fail(s.message());
       if (auto s = checkDataFiles(*cfg); !s) return fail(s.message());
+    }
     if (cfg->mpi.np > 0) {
       auto s = runMpiJob(job, run, *cfg, [&] { endStart(); });
       if (!s) return fail(s.message());
@@ -594,6 +664,15 @@ void JobManager::runJob(Job& job) {
       scored_refs = lgp::emit::scoreReferences(*cfg, *table);
     }
 #endif
+    // The search's threads: capped at the cores lgpd may use (lgp::Search does so), and
+    // started once here, so that a machine that cannot give them fails the run with a
+    // message rather than in the OpenMP runtime, which ends the process.
+    const int cores = lgp::Search::maxThreads();
+    if (cfg->search.threads > cores)
+      spdlog::warn("run {}: search.threads {} capped at the {} cores lgpd may use", id,
+                   cfg->search.threads, cores);
+    const int threads = cfg->search.threads > 0 ? std::min(cfg->search.threads, cores) : cores;
+    if (auto s = probeThreads(threads); !s) return fail(s.message());
     search = std::make_unique<lgp::Search>(*cfg, *table);
     bool resumed = false;
     auto ckpt = store_.loadCheckpoint(id);
@@ -655,16 +734,16 @@ void JobManager::runJob(Job& job) {
         json front = snapshot();
         auto s = store_.writeCheckpoint(id, search->checkpoint(), &front,
                                         countersOf(search->progress(), best));
-        if (!s) spdlog::error("run {}: checkpoint: {}", id, s.message());
+        if (!s) return fail("cannot store the run's checkpoint: " + s.message());
         last_ckpt = last_progress = last_front = now;
       } else if (seconds(now - last_front) >= cfg_.front_interval_s) {
         json front = snapshot();
         auto s = store_.writeFrontSnapshot(id, front, countersOf(search->progress(), best));
-        if (!s) spdlog::error("run {}: front snapshot: {}", id, s.message());
+        if (!s) return fail("cannot store the run's front: " + s.message());
         last_front = last_progress = now;
       } else if (seconds(now - last_progress) >= cfg_.progress_interval_s) {
         auto s = store_.updateProgress(id, countersOf(search->progress(), best));
-        if (!s) spdlog::error("run {}: progress: {}", id, s.message());
+        if (!s) return fail("cannot store the run's progress: " + s.message());
         last_progress = now;
       }
     }
@@ -702,7 +781,7 @@ void JobManager::runJob(Job& job) {
                   " programs evaluated had a finite error, cost and discontinuity (the targets, "
                   "weights or target transforms overflow the float32 evaluation or its sums)");
     auto s = store_.finishRun(id, status, &front, countersOf(p, best), "");
-    if (!s) return fail(s.message());
+    if (!s) return fail("cannot store the run's final front: " + s.message());
     spdlog::info("run {} {}: generation {}, {} evaluations, front of {}", id, toString(status),
                  p.generation, p.evaluations, p.front_size);
     return finish();
@@ -1018,17 +1097,21 @@ bool JobManager::isActive(const std::string& id) const {
   return it != jobs_.end() && !it->second->finished.load();
 }
 
-bool JobManager::cancel(const std::string& id) {
+Expected<bool> JobManager::cancel(const std::string& id) {
   std::lock_guard lock(mutex_);
   auto it = jobs_.find(id);
   if (it == jobs_.end() || it->second->finished.load()) {
     // Not active: a queued run is cancelled in the store (the job thread re-checks status
     // before starting, so a concurrent launch sees the cancel).
-    auto s = store_.cancelQueued(id);
-    if (!s) spdlog::error("run {}: {}", id, s.message());
+    if (auto s = store_.cancelQueued(id); !s) {
+      spdlog::error("run {}: {}", id, s.message());
+      return s;
+    }
     return false;
   }
   it->second->cancel.store(true);
+  // The job stops either way; the flag in the store only matters if lgpd dies before the job
+  // writes its end.
   auto s = store_.requestCancel(id);
   if (!s) spdlog::error("run {}: {}", id, s.message());
   it->second->requestStop();

@@ -75,11 +75,13 @@ class JobManager {
   // shape (submit_checks.hpp). Generates no scene and reads no large table. The error names
   // the JSON path.
   lgp::Expected<PreparedRun> prepare(const nlohmann::json& submission) const;
-  // Stores a prepared run as queued and wakes the scheduler. Returns the id.
-  lgp::Expected<std::string> submit(PreparedRun run);
+  // Stores a prepared run as queued and wakes the scheduler. Returns the id. With
+  // max_queued_runs runs waiting already, stores nothing and sets *queue_full.
+  lgp::Expected<std::string> submit(PreparedRun run, bool* queue_full = nullptr);
 
-  // False when the run is not active (then the store is authoritative).
-  bool cancel(const std::string& id);
+  // False when the run is not active (then the store is authoritative); an error when the
+  // store could not record the cancel.
+  lgp::Expected<bool> cancel(const std::string& id);
   // Deletes a run: stops it if active, then removes every row. False if unknown.
   lgp::Expected<bool> remove(const std::string& id);
   bool isActive(const std::string& id) const;
@@ -107,6 +109,9 @@ class JobManager {
   void schedulerLoop();
   void launch(const std::string& id, bool resume);
   void runJob(Job& job);
+  // Starts the job's thread; when that fails (std::system_error) the run is failed in the
+  // store and false returned: the caller drops the job.
+  bool startJobThread(Job& job);
   // The out-of-process job of an MPI run. An error fails the run (unless it was deleted).
   // launched() is called once the launcher runs.
   lgp::Status runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg,
@@ -120,6 +125,9 @@ class JobManager {
   lgp::Status resolveInlineTable(const RunRecord& run) const;
   std::filesystem::path inlineTablePath(const std::string& id) const;
   lgp::Status checkDataPath(const std::filesystem::path& p) const;
+  // checkDataPath for data.path and data.scene of a parsed config (at job start and before a
+  // table load: a file may have become a link to one outside since submit).
+  lgp::Status checkDataPaths(const lgp::RunConfig& cfg) const;
 
   Store& store_;
   DaemonConfig cfg_;
@@ -130,6 +138,7 @@ class JobManager {
   bool stopping_ = false;
   bool started_ = false;
   std::thread scheduler_;
+  std::mutex submit_mutex_;
 
   std::mutex table_mutex_;
   std::map<std::string, TablePtr> tables_;  // small cache

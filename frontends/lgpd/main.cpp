@@ -10,6 +10,9 @@
 //
 // SIGINT/SIGTERM: the server stops, every running job checkpoints and stays "running", and
 // the next lgpd resumes it. After a kill -9 the next lgpd resumes from the last checkpoint.
+//
+// One lgpd per data dir: a second one on the same dir exits 1 naming the first one's PID
+// (data_dir_lock.hpp).
 #include <csignal>
 #include <cstdio>
 #include <fstream>
@@ -22,9 +25,11 @@
 
 #include "api.hpp"
 #include "daemon_config.hpp"
+#include "data_dir_lock.hpp"
 #include "files.hpp"
 #include "http_server.hpp"
 #include "jobs.hpp"
+#include "lgp/core/data_roots.hpp"
 #include "omp_env.hpp"
 #include "store.hpp"
 
@@ -84,6 +89,13 @@ int run(int argc, char** argv) {
     return 2;
   }
   auto addr = lgpd::parseListen(cfg.listen);
+  if (!cfg.allowed_data_dirs.empty()) {
+    // Every table and scene reader of this process checks the file it opened (not only its
+    // path) against these; inline tables are lgpd's own files under tables/.
+    auto roots = cfg.allowed_data_dirs;
+    roots.push_back(cfg.data_dir / "tables");
+    lgp::setDataRoots(roots);
+  }
 
   // Signals are taken by one thread with sigwait; every other thread has them blocked.
   sigset_t sigs;
@@ -93,6 +105,12 @@ int run(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &sigs, nullptr);
   std::signal(SIGPIPE, SIG_IGN);
 
+  // Before the database is opened or a run resumed: a second daemon on this dir stops here.
+  auto dir_lock = lgpd::DataDirLock::acquire(cfg.data_dir);
+  if (!dir_lock) {
+    std::fprintf(stderr, "error: %s\n", dir_lock.error().c_str());
+    return 1;
+  }
   auto store = lgpd::Store::open(cfg.data_dir, args.count("init") > 0);
   if (!store) {
     std::fprintf(stderr, "error: %s\n", store.error().c_str());

@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <fcntl.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -470,7 +471,63 @@ Expected<std::unique_ptr<Store>> Store::open(const fs::path& dir, bool init) {
   s->release(*db);
   if (!st) return st;
   if (fresh) spdlog::info("created a new database {}", path.string());
+  s->ensureReserve();
   return s;
+}
+
+namespace {
+
+// SQLite's SQLITE_FULL and SQLITE_IOERR texts, and ENOSPC's.
+bool isDiskFull(const std::string& msg) {
+  return msg.find("database or disk is full") != std::string::npos ||
+         msg.find("disk I/O error") != std::string::npos ||
+         msg.find("No space left") != std::string::npos;
+}
+
+const std::string& errorOf(const Status& s) {
+  return s.message();
+}
+template <class T>
+const std::string& errorOf(const Expected<T>& e) {
+  return e.error();
+}
+
+}  // namespace
+
+void Store::ensureReserve() {
+  std::lock_guard lock(reserve_mutex_);
+  std::error_code ec;
+  if (fs::exists(reserve_path_, ec)) return;
+  fs::path tmp = reserve_path_;
+  tmp += ".tmp";
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0600);
+  if (fd < 0) return;
+  // posix_fallocate really takes the blocks (a sparse file would free nothing).
+  const bool ok = ::posix_fallocate(fd, 0, kReserveBytes) == 0;
+  ::close(fd);
+  if (ok) fs::rename(tmp, reserve_path_, ec);
+  if (!ok || ec) {
+    fs::remove(tmp, ec);
+    spdlog::warn("no room for the disk-full reserve {} ({} bytes)", reserve_path_.string(),
+                 kReserveBytes);
+  }
+}
+
+bool Store::releaseReserve() {
+  std::lock_guard lock(reserve_mutex_);
+  std::error_code ec;
+  return fs::remove(reserve_path_, ec);
+}
+
+template <class F>
+auto Store::essential(F write) -> decltype(write()) {
+  auto r = write();
+  if (!r && isDiskFull(errorOf(r)) && releaseReserve()) {
+    spdlog::warn("the data dir's disk is full ({}); released the reserve {} to write anyway",
+                 errorOf(r), reserve_path_.string());
+    r = write();
+  }
+  return r;
 }
 
 Store::~Store() {
@@ -630,26 +687,32 @@ Status Store::endStart(const std::string& id) {
 }
 
 Status Store::requestCancel(const std::string& id) {
-  LGPD_LEASE(l);
-  Stmt st(l.db(), "UPDATE runs SET cancel_requested = 1 WHERE id = ?1");
-  st.bind(1, id);
-  return run(l.db(), st, "request cancel");
+  return essential([&]() -> Status {
+    LGPD_LEASE(l);
+    Stmt st(l.db(), "UPDATE runs SET cancel_requested = 1 WHERE id = ?1");
+    st.bind(1, id);
+    return run(l.db(), st, "request cancel");
+  });
 }
 
 Status Store::requeue(const std::string& id) {
-  LGPD_LEASE(l);
-  Stmt st(l.db(), "UPDATE runs SET status = 'queued' WHERE id = ?1 AND status = 'running'");
-  st.bind(1, id);
-  return run(l.db(), st, "requeue");
+  return essential([&]() -> Status {
+    LGPD_LEASE(l);
+    Stmt st(l.db(), "UPDATE runs SET status = 'queued' WHERE id = ?1 AND status = 'running'");
+    st.bind(1, id);
+    return run(l.db(), st, "requeue");
+  });
 }
 
 Status Store::cancelQueued(const std::string& id) {
-  LGPD_LEASE(l);
-  Stmt st(l.db(),
-          "UPDATE runs SET status = 'cancelled', cancel_requested = 1, finished_at = ?2, "
-          "stop_reason = 'cancelled' WHERE id = ?1 AND status = 'queued'");
-  st.bind(1, id).bind(2, unixNow());
-  return run(l.db(), st, "cancel queued");
+  return essential([&]() -> Status {
+    LGPD_LEASE(l);
+    Stmt st(l.db(),
+            "UPDATE runs SET status = 'cancelled', cancel_requested = 1, finished_at = ?2, "
+            "stop_reason = 'cancelled' WHERE id = ?1 AND status = 'queued'");
+    st.bind(1, id).bind(2, unixNow());
+    return run(l.db(), st, "cancel queued");
+  });
 }
 
 Status Store::updateProgress(const std::string& id, const RunCounters& c) {
@@ -691,33 +754,38 @@ Status Store::writeCheckpoint(const std::string& id, const json& state, const js
 
 Status Store::finishRun(const std::string& id, RunStatus status, const json* front,
                         const RunCounters& c, const std::string& error) {
-  LGPD_LEASE(l);
-  Transaction tx(l.db());
-  if (!tx.began()) return tx.began();
-  if (front) {
-    if (auto s = upsertFront(l.db(), id, *front, true, c.generation); !s) return s;
-  } else {
-    // A snapshot left from a checkpoint becomes the final front (cancel before completion).
-    Stmt st(l.db(), "UPDATE fronts SET final = 1 WHERE run_id = ?1");
-    st.bind(1, id);
-    if (auto s = run(l.db(), st, "finalise front"); !s) return s;
-  }
-  if (auto s = updateCounters(l.db(), id, c); !s) return s;
-  Stmt st(l.db(), "UPDATE runs SET status = ?2, finished_at = ?3, error = ?4 WHERE id = ?1");
-  st.bind(1, id).bind(2, toString(status)).bind(3, unixNow()).bind(4, error);
-  if (auto s = run(l.db(), st, "finish run"); !s) return s;
-  Stmt del(l.db(), "DELETE FROM checkpoints WHERE run_id = ?1");
-  del.bind(1, id);
-  if (auto s = run(l.db(), del, "drop checkpoint"); !s) return s;
-  if (auto s = addHistory(l.db(), id, c, std::string(toString(status))); !s) return s;
-  return tx.commit();
+  return essential([&]() -> Status {
+    LGPD_LEASE(l);
+    Transaction tx(l.db());
+    if (!tx.began()) return tx.began();
+    if (front) {
+      if (auto s = upsertFront(l.db(), id, *front, true, c.generation); !s) return s;
+    } else {
+      // A snapshot left from a checkpoint becomes the final front (cancel before completion).
+      Stmt st(l.db(), "UPDATE fronts SET final = 1 WHERE run_id = ?1");
+      st.bind(1, id);
+      if (auto s = run(l.db(), st, "finalise front"); !s) return s;
+    }
+    if (auto s = updateCounters(l.db(), id, c); !s) return s;
+    Stmt st(l.db(), "UPDATE runs SET status = ?2, finished_at = ?3, error = ?4 WHERE id = ?1");
+    st.bind(1, id).bind(2, toString(status)).bind(3, unixNow()).bind(4, error);
+    if (auto s = run(l.db(), st, "finish run"); !s) return s;
+    Stmt del(l.db(), "DELETE FROM checkpoints WHERE run_id = ?1");
+    del.bind(1, id);
+    if (auto s = run(l.db(), del, "drop checkpoint"); !s) return s;
+    if (auto s = addHistory(l.db(), id, c, std::string(toString(status))); !s) return s;
+    return tx.commit();
+  });
 }
 
 Status Store::failRun(const std::string& id, const std::string& error) {
-  LGPD_LEASE(l);
-  Stmt st(l.db(), "UPDATE runs SET status = 'failed', finished_at = ?2, error = ?3 WHERE id = ?1");
-  st.bind(1, id).bind(2, unixNow()).bind(3, error);
-  return run(l.db(), st, "fail run");
+  return essential([&]() -> Status {
+    LGPD_LEASE(l);
+    Stmt st(l.db(),
+            "UPDATE runs SET status = 'failed', finished_at = ?2, error = ?3 WHERE id = ?1");
+    st.bind(1, id).bind(2, unixNow()).bind(3, error);
+    return run(l.db(), st, "fail run");
+  });
 }
 
 Expected<std::optional<json>> Store::loadCheckpoint(const std::string& id) {
@@ -777,22 +845,27 @@ Expected<std::vector<ProgressRow>> Store::history(const std::string& id, size_t 
 }
 
 Expected<bool> Store::deleteRun(const std::string& id) {
-  LGPD_LEASE(l);
-  Transaction tx(l.db());
-  if (!tx.began()) return tx.began();
-  for (const char* sql :
-       {"DELETE FROM progress WHERE run_id = ?1", "DELETE FROM fronts WHERE run_id = ?1",
-        "DELETE FROM checkpoints WHERE run_id = ?1"}) {
-    Stmt st(l.db(), sql);
+  auto r = essential([&]() -> Expected<bool> {
+    LGPD_LEASE(l);
+    Transaction tx(l.db());
+    if (!tx.began()) return tx.began();
+    for (const char* sql :
+         {"DELETE FROM progress WHERE run_id = ?1", "DELETE FROM fronts WHERE run_id = ?1",
+          "DELETE FROM checkpoints WHERE run_id = ?1"}) {
+      Stmt st(l.db(), sql);
+      st.bind(1, id);
+      if (auto s = run(l.db(), st, "delete run rows"); !s) return s;
+    }
+    Stmt st(l.db(), "DELETE FROM runs WHERE id = ?1");
     st.bind(1, id);
-    if (auto s = run(l.db(), st, "delete run rows"); !s) return s;
-  }
-  Stmt st(l.db(), "DELETE FROM runs WHERE id = ?1");
-  st.bind(1, id);
-  if (auto s = run(l.db(), st, "delete run"); !s) return s;
-  bool existed = sqlite3_changes(l.db()) > 0;
-  if (auto s = tx.commit(); !s) return s;
-  return existed;
+    if (auto s = run(l.db(), st, "delete run"); !s) return s;
+    bool existed = sqlite3_changes(l.db()) > 0;
+    if (auto s = tx.commit(); !s) return s;
+    return existed;
+  });
+  // Rows deleted: room, maybe, for the reserve that a full disk took.
+  if (r) ensureReserve();
+  return r;
 }
 
 }  // namespace lgpd

@@ -8,6 +8,12 @@
 // transaction, so a crash leaves either the old or the new state, never a mix. Every
 // statement is prepared with bound parameters: ids and configs never reach SQL text.
 //
+// A full disk: lgpd keeps DIR/lgpd.reserve (kReserveBytes, allocated at start) and deletes
+// it when a write that must work finds the disk full (a run failed, finished or cancelled, a
+// cancel, a delete), then retries that write once in the space it freed. So a run that can
+// no longer write is marked failed with the reason, and cancel and DELETE still work. The
+// reserve is allocated again at the next start and after a delete, where there is room.
+//
 // Thread safety: every method may be called from any thread; each call borrows one of a
 // small pool of connections, so API reads do not wait for a job's checkpoint write.
 #pragma once
@@ -134,15 +140,29 @@ class Store {
   lgp::Expected<bool> deleteRun(const std::string& id);
 
  private:
-  explicit Store(std::filesystem::path p) : path_(std::move(p)) {}
+  explicit Store(std::filesystem::path p)
+      : path_(std::move(p)), reserve_path_(path_.parent_path() / "lgpd.reserve") {}
   class Lease;
+  // Allocates the reserve file if it is missing and there is room; best effort.
+  void ensureReserve();
+  // Deletes the reserve; false when there was none.
+  bool releaseReserve();
+  // Runs `write`; when it fails on a full disk and the reserve is there, frees the reserve
+  // and runs it once more.
+  template <class F>
+  auto essential(F write) -> decltype(write());
   lgp::Expected<sqlite3*> acquire();
   void release(sqlite3* db);
 
   std::filesystem::path path_;
+  std::filesystem::path reserve_path_;
+  std::mutex reserve_mutex_;
   std::mutex pool_mutex_;
   std::vector<sqlite3*> pool_;
 };
+
+// Size of the reserve file (see Store).
+inline constexpr long long kReserveBytes = 4ll << 20;
 
 double unixNow();
 

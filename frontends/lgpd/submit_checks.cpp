@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <filesystem>
 
 #include "files.hpp"
@@ -173,6 +174,48 @@ Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumns& co
     return Status::error("/search/seed_references: this lgpd was built without the parser");
   return Status::ok();
 #endif
+}
+
+namespace {
+
+uint64_t programBytes(const lgp::RunConfig& cfg) {
+  // The vectors' contents plus the Program and its objectives; 64 bytes of allocator slack.
+  return sizeof(lgp::Program) + sizeof(lgp::Objectives) + 64 +
+         sizeof(lgp::Instr) * static_cast<uint64_t>(cfg.program.max_length) +
+         sizeof(float) * static_cast<uint64_t>(cfg.program.num_constants) + 64;
+}
+
+std::string gib(uint64_t bytes) {
+  char buf[32];
+  if (bytes < (uint64_t{1} << 30))
+    std::snprintf(buf, sizeof buf, "%.0f MiB", static_cast<double>(bytes) / (1u << 20));
+  else
+    std::snprintf(buf, sizeof buf, "%.1f GiB", static_cast<double>(bytes) / (1u << 30));
+  return buf;
+}
+
+}  // namespace
+
+uint64_t estimateSearchBytes(const lgp::RunConfig& cfg) {
+  const uint64_t programs = 4 * static_cast<uint64_t>(std::max(cfg.search.population, 0)) +
+                            static_cast<uint64_t>(std::max(cfg.search.archive.max_size, 0));
+  return programs * programBytes(cfg) +
+         static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
+}
+
+lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit) {
+  const uint64_t need = estimateSearchBytes(cfg);
+  if (need <= limit) return lgp::Status::ok();
+  const uint64_t islands =
+      static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
+  const bool by_islands = islands > need - islands;
+  return lgp::Status::error(
+      std::string(by_islands ? "/search/islands/count" : "/search/population") +
+      ": this run would need about " + gib(need) + " (" + std::to_string(cfg.search.population) +
+      " programs of up to " + std::to_string(cfg.program.max_length) + " opcodes, " +
+      std::to_string(cfg.search.islands.count) + " islands), more than this lgpd allows a run (" +
+      gib(limit) + ", its max_run_memory_mb; by default half the machine's memory): lower " +
+      (by_islands ? "search.islands.count" : "search.population or program.max_length"));
 }
 
 }  // namespace lgpd

@@ -47,4 +47,14 @@ lgp::Expected<TableColumns> checkTableAtSubmit(const lgp::RunConfig& cfg);
 // columns only the format and the lengths are checked.
 lgp::Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumns& columns);
 
+// What a search of `cfg` holds in memory, roughly: its programs, each at its longest
+// (program.max_length opcodes, program.constants constants), four per population slot (the
+// population, its offspring and the selection pool with its copies) plus the archive's, and
+// kIslandOverheadBytes per island. The table and the evaluation buffers are not counted.
+uint64_t estimateSearchBytes(const lgp::RunConfig& cfg);
+inline constexpr uint64_t kIslandOverheadBytes = uint64_t{64} << 10;
+// A 400 naming /search/population (or /search/islands/count when the islands weigh more)
+// when estimateSearchBytes(cfg) exceeds `limit` (the daemon's max_run_memory_mb).
+lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit);
+
 }  // namespace lgpd

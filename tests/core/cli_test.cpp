@@ -130,15 +130,31 @@ TEST_F(Cli, InterruptStillWritesTheFront) {
   auto j = base(0);
   j["search"]["generations"] = 0;
   j["search"]["wall_time_s"] = 60;
+  j["output"]["progress_interval_s"] = 0;  // a status row every generation
   const std::string cfg = config(j).string();
+  const std::string status = (dir / "status.json").string();
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     const std::string bin = lgp();
-    execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", static_cast<char*>(nullptr));
+    execl(bin.c_str(), bin.c_str(), "run", cfg.c_str(), "-q", "--status", status.c_str(),
+          static_cast<char*>(nullptr));
     _exit(127);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // Interrupt once the search is under way (its status file shows a generation done): the
+  // handler is installed by then and the front has members. A bounded poll, not a fixed sleep.
+  int generation = -1;
+  for (int i = 0; i < 3000 && generation < 1; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::ifstream in(status);
+    const auto st = nlohmann::json::parse(in, nullptr, false);
+    if (st.is_object() && st["generation"].is_number_integer()) generation = st["generation"];
+  }
+  if (generation < 1) {
+    kill(pid, SIGKILL);
+    waitpid(pid, nullptr, 0);
+    FAIL() << "no generation within 30 s";
+  }
   kill(pid, SIGINT);
   int st = 0;
   waitpid(pid, &st, 0);
@@ -188,3 +204,51 @@ TEST_F(Cli, CheckpointResumeAndStatusFile) {
 }
 
 }  // namespace
+
+// A full disk (/dev/full: every write fails with ENOSPC) is an error with a message and a
+// non-zero exit, never a truncated output with exit 0. Standard output fails only when its
+// buffer is flushed at the end, so that is where lgp must look.
+TEST_F(Cli, StandardOutputOnAFullDiskExitsNonZero) {
+  if (!fs::is_character_file("/dev/full")) GTEST_SKIP() << "this machine has no /dev/full";
+  auto r = sh(lgp() + " run " + config(base(3)).string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string front = (dir / "front.json").string(), table = (dir / "t.csv").string();
+  for (const std::string& args : std::vector<std::string>{
+           " front " + front, " front " + front + " --json", " --help", " front --help",
+           " score " + table + " -e 'f = x * y + 0.5' --inputs x,y --outputs f --no-measure",
+           " score " + table +
+               " -e 'f = x * y + 0.5' --inputs x,y --outputs f --no-measure --json"}) {
+    // stdout to /dev/full, stderr (the message) to the pipe.
+    r = sh("{ " + lgp() + args + " >/dev/full; }");
+    EXPECT_EQ(r.code, 1) << "lgp" << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("error: cannot write the output (standard output)"), std::string::npos)
+        << "lgp" << args << "\n"
+        << r.out;
+  }
+  // The same commands with a working stdout still exit 0.
+  r = sh(lgp() + " front " + front + " >/dev/null");
+  EXPECT_EQ(r.code, 0) << r.out;
+}
+
+// Files named on the command line or in the config: a path that is a device (here a symlink
+// to /dev/full) is written in place and its failure reported; a temp file renamed over it
+// would have replaced the link (or, as root, the device node) and exited 0.
+TEST_F(Cli, OutputFilesOnAFullDiskExitNonZero) {
+  if (!fs::is_character_file("/dev/full")) GTEST_SKIP() << "this machine has no /dev/full";
+  const fs::path full = dir / "full";
+  fs::create_symlink("/dev/full", full);
+  auto r = sh(lgp() + " run " + config(base(3)).string() + " -q");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string front = (dir / "front.json").string(), cfg = (dir / "c.json").string();
+  for (const std::string& args : std::vector<std::string>{
+           " run " + cfg + " -q -o " + full.string(), " run " + cfg + " -q --csv " + full.string(),
+           " run " + cfg + " -q --checkpoint " + full.string(),
+           " front " + front + " --snap -o " + full.string()}) {
+    r = sh(lgp() + args);
+    EXPECT_NE(r.code, 0) << "lgp" << args << "\n" << r.out;
+    EXPECT_NE(r.out.find("No space left on device"), std::string::npos) << "lgp" << args << "\n"
+                                                                        << r.out;
+    EXPECT_TRUE(fs::is_symlink(full)) << "lgp" << args << " replaced the link with a file";
+  }
+  EXPECT_TRUE(fs::is_character_file("/dev/full"));
+}

@@ -58,7 +58,13 @@ TEST(Islands, IslandCountChangesTheSearch) {
   EXPECT_EQ(one.progress().islands, 1);
   EXPECT_EQ(four.progress().islands, 4);
   EXPECT_EQ(one.progress().migrants, 0u);
-  EXPECT_NE(members(one), members(four));
+  EXPECT_GT(four.progress().migrants, 0u);
+  // Four demes of a quarter of the population each, and one of all of it.
+  const auto demes = four.checkpoint()["islands"];
+  ASSERT_EQ(demes.size(), 4u);
+  for (const auto& d : demes) EXPECT_EQ(d["population"].size(), 24u);
+  ASSERT_EQ(one.checkpoint()["islands"].size(), 1u);
+  EXPECT_EQ(one.checkpoint()["islands"][0]["population"].size(), 96u);
 }
 
 TEST(Islands, MigrationHappensAndKeepsArchiveInvariants) {

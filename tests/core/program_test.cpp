@@ -140,27 +140,67 @@ TEST_P(Variation, OperatorsAlwaysYieldValidPrograms) {
 INSTANTIATE_TEST_SUITE_P(Modes, Variation,
                          ::testing::Values(OutputMode::Last, OutputMode::Designated));
 
-TEST(Variation, CrossoverCopiesSegmentsVerbatim) {
-  // With one-opcode parents of equal length, the child's opcodes all come from a or b.
+// Whether c is a[0, i) + b[k, l) + a[j, n) for some segments of at most 8 opcodes (the
+// crossover's shape): every opcode's operator matches, the prefix is a's verbatim, and the
+// input and constant operands of the two copied parts are the parents' (register operands are
+// renumbered to the new positions). Sets *from_b to the length of b's segment.
+bool isSplice(const Program& c, const Program& a, const Program& b, int* from_b) {
+  const int na = static_cast<int>(a.code.size()), nb = static_cast<int>(b.code.size());
+  const int nc = static_cast<int>(c.code.size());
+  // x in the child, y in a parent. A register operand of b's segment that points before the
+  // segment may have been out of range at its new place and redrawn (at position 0 as an
+  // input or constant), so only the parents' input and constant operands must be kept.
+  auto sameNonReg = [](const Instr& x, const Instr& y) {
+    if (x.op != y.op) return false;
+    for (int q = 0; q < arity(x.op); ++q)
+      if (y.args[q].kind != OperandKind::Reg && !(x.args[q] == y.args[q])) return false;
+    return true;
+  };
+  for (int i = 0; i < na; ++i) {
+    bool prefix = i <= nc;
+    for (int p = 0; prefix && p < i; ++p) prefix = c.code[p] == a.code[p];
+    if (!prefix) break;  // longer prefixes fail too
+    for (int j = i + 1; j <= std::min(na, i + 8); ++j)
+      for (int k = 0; k < nb; ++k)
+        for (int l = k + 1; l <= std::min(nb, k + 8); ++l) {
+          if (i + (l - k) + (na - j) != nc) continue;
+          bool ok = true;
+          for (int p = k; ok && p < l; ++p) ok = sameNonReg(c.code[i + p - k], b.code[p]);
+          for (int p = j; ok && p < na; ++p)
+            ok = sameNonReg(c.code[i + (l - k) + p - j], a.code[p]);
+          if (ok) {
+            *from_b = l - k;
+            return true;
+          }
+        }
+  }
+  return false;
+}
+
+TEST(Variation, CrossoverSplicesASegmentOfBIntoA) {
   ProgramShape shape;
   shape.num_inputs = 2;
+  shape.num_constants = 4;
   shape.max_length = 32;
   InitConfig init{10, 10, -1, 1};
   Rng rng(3);
-  const Program a = randomProgram(shape, init, rng);
-  const Program b = randomProgram(shape, init, rng);
-  int from_b = 0;
-  for (int t = 0; t < 100; ++t) {
+  int changed = 0;
+  for (int t = 0; t < 200; ++t) {
+    const Program a = randomProgram(shape, init, rng);
+    const Program b = randomProgram(shape, init, rng);
     const Program c = crossover(a, b, shape, rng);
-    for (const auto& ins : c.code) {
-      bool op_in_a = false, op_in_b = false;
-      for (const auto& x : a.code) op_in_a |= x.op == ins.op;
-      for (const auto& x : b.code) op_in_b |= x.op == ins.op;
-      EXPECT_TRUE(op_in_a || op_in_b);
-      from_b += op_in_b && !op_in_a;
-    }
+    int from_b = 0;
+    ASSERT_TRUE(isSplice(c, a, b, &from_b)) << "trial " << t;
+    EXPECT_GE(from_b, 1);
+    EXPECT_LE(from_b, 8);
+    // Every constant slot comes from one of the parents, at the same slot.
+    ASSERT_EQ(c.constants.size(), a.constants.size());
+    for (size_t s = 0; s < c.constants.size(); ++s)
+      EXPECT_TRUE(c.constants[s] == a.constants[s] || c.constants[s] == b.constants[s]);
+    changed += !(c.code == a.code);
   }
-  EXPECT_GT(from_b, 0);
+  // Random parents share few opcodes: almost every child differs from a.
+  EXPECT_GT(changed, 150);
 }
 
 TEST(Variation, RespectsTheAllowedOperatorSet) {

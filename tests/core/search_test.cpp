@@ -48,12 +48,25 @@ TEST(Search, FrontDoesNotDependOnThreadCount) {
   EXPECT_EQ(members(a), members(b));
 }
 
+// The seed drives the search from its first population: two seeds share (almost) no initial
+// program, one seed repeats every one of them.
 TEST(Search, DifferentSeedsExploreDifferently) {
-  Search a(smallConfig(1, 3), grid(12));
-  a.run();
-  Search b(smallConfig(1, 4), grid(12));
-  b.run();
-  EXPECT_NE(members(a), members(b));
+  auto initial = [](uint64_t seed) {
+    Search s(smallConfig(1, seed), grid(12));
+    s.initialize();
+    const nlohmann::json state = s.checkpoint();
+    nlohmann::json programs = nlohmann::json::array();
+    for (const auto& isl : state["islands"])
+      for (const auto& ind : isl["population"]) programs.push_back(ind["program"]);
+    return programs;
+  };
+  const auto a = initial(3), again = initial(3), b = initial(4);
+  ASSERT_EQ(a.size(), 80u);
+  ASSERT_EQ(b.size(), a.size());
+  EXPECT_EQ(a, again);
+  size_t same = 0;
+  for (size_t i = 0; i < a.size(); ++i) same += a[i] == b[i];
+  EXPECT_LE(same, a.size() / 10) << same << " of " << a.size() << " programs alike";
 }
 
 TEST(Search, ResumedRunEqualsUninterruptedRun) {
@@ -143,19 +156,31 @@ TEST(Search, FrontIsNonDominatedFiniteAndConsistent) {
       EXPECT_LE(front[i - 1].obj.cost, front[i].obj.cost);
     }
   }
-  // The lowest-error member is far better than the best constant: a rate over seeds, since a
-  // short search on one seed may stop just short of it.
+  // The lowest-error member is far better than the best constant: under 30 % of its error
+  // (40 generations reach 17-21 %), as a rate over seeds, since a short search on one seed may
+  // stop just short of it. The best constant's RMSE is the targets' standard deviation,
+  // computed here from the table (the front's cheapest member need not be a constant: here it
+  // is a worse program of cost 0).
+  const Table t12 = grid(12);
+  double mean = 0, var = 0;
+  for (double y : t12.outputs[0]) mean += y / t12.rows();
+  for (double y : t12.outputs[0]) var += (y - mean) * (y - mean) / t12.rows();
+  const double best_constant = std::sqrt(var);
   int better = 0;
+  std::string bests;
   for (uint64_t seed : {3, 4, 5}) {
-    Search t(smallConfig(2, seed), grid(12));
+    RunConfig longer = smallConfig(2, seed);
+    longer.search.generations = 40;
+    Search t(longer, grid(12));
     t.run();
     const auto f = t.front();
     ASSERT_FALSE(f.empty());
     double best = INFINITY;
     for (const auto& e : f) best = std::min(best, e.obj.error);
-    better += best < 0.5 * f.front().obj.error + 1e-12;
+    better += best < 0.3 * best_constant;
+    bests += " " + std::to_string(best);
   }
-  EXPECT_GE(better, 2);
+  EXPECT_GE(better, 2) << "best errors" << bests << ", best constant " << best_constant;
 }
 
 }  // namespace

@@ -155,6 +155,7 @@ class Daemon {
   }
   bool alive() { return !exited(); }
   int exitCode() const { return exit_code_; }
+  pid_t pid() const { return pid_; }
 
   std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
   int port() const { return port_; }

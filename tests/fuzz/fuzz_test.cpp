@@ -682,7 +682,8 @@ class FuzzDaemon : public Fuzz {
   void SetUp() override {
     Fuzz::SetUp();
     daemon_ = std::make_unique<Daemon>(dir_->path() / "lgpd");
-    const fs::path cfg = file("lgpd.json", R"({"max_body_bytes": 1048576, "max_jobs": 1})");
+    const fs::path cfg = file(
+        "lgpd.json", R"({"max_body_bytes": 1048576, "max_jobs": 1, "max_run_memory_mb": 1024})");
     ASSERT_TRUE(daemon_->start({"--config", cfg.string(), "--init"}));
   }
   void TearDown() override {
@@ -762,6 +763,10 @@ TEST_F(FuzzDaemon, BodyRegressions) {
       {"FIFO as data", with([&](auto& j) { j["data"]["path"] = fifo.string(); })},
       {"directory as data", with([&](auto& j) { j["data"]["path"] = adir.string(); })},
       {"duplicate keys", "{\"data\": {}, \"data\": {}}"},
+      {"population over the memory bound", with([](auto& j) {
+         j["search"]["population"] = 1 << 20;
+         j["program"] = {{"max_length", 255}, {"constants", 255}};
+       })},
   };
   for (const auto& [what, body] : bodies) {
     watchdog().arm(what, body, kCaseDeadlineS);

@@ -1,5 +1,6 @@
 #include "lgp/core/table.hpp"
 #include "lgp/core/csv.hpp"
+#include "lgp/core/data_roots.hpp"
 #include "lgp/core/text_check.hpp"
 
 #include <fcntl.h>
@@ -20,7 +21,8 @@
 
 namespace lgp {
 
-Expected<std::string> readInputFile(const std::filesystem::path& path, size_t max_bytes) {
+Expected<std::string> readInputFile(const std::filesystem::path& path, size_t max_bytes,
+                                    Status (*check)(int fd, const std::string& shown)) {
   const std::string f = path.string();
   // O_NONBLOCK: opening a FIFO for reading must not wait for a writer; it is refused below.
   const int fd = ::open(f.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
@@ -32,6 +34,8 @@ Expected<std::string> readInputFile(const std::filesystem::path& path, size_t ma
   struct stat st {};
   if (::fstat(fd, &st) != 0)
     return Status::error(f + ": cannot stat (" + std::strerror(errno) + ")");
+  if (check)
+    if (auto s = check(fd, f); !s) return s;
   if (S_ISDIR(st.st_mode)) return Status::error(f + ": is a directory");
   if (!S_ISREG(st.st_mode))
     return Status::error(f + ": not a regular file (a FIFO, socket or device is not read)");
@@ -127,7 +131,7 @@ Status checkCsvHeader(const std::vector<std::string>& names, const std::string& 
 
 Expected<RawTable> readCsv(const std::filesystem::path& path) {
   const std::string f = path.string();
-  auto text = readInputFile(path);
+  auto text = readDataFile(path, kMaxInputFileBytes);
   if (!text) return text.status();
   std::string_view body = *text;
   if (body.substr(0, 3) == "\xEF\xBB\xBF") body.remove_prefix(3);  // UTF-8 byte order mark
@@ -224,7 +228,7 @@ Expected<RawTable> parseJsonTable(const nlohmann::json& j, const std::string& f)
 
 Expected<RawTable> readJsonTable(const std::filesystem::path& path) {
   const std::string f = path.string();
-  auto text = readInputFile(path);
+  auto text = readDataFile(path, kMaxInputFileBytes);
   if (!text) return text.status();
   JsonLimits limits;
   limits.max_bytes = kMaxInputFileBytes;
@@ -314,6 +318,7 @@ Status writeCsv(const Table& t, const std::filesystem::path& path) {
     }
     out << "\n";
   }
+  out.close();  // a full disk shows when the last buffer is written
   if (!out) return Status::error(path.string() + ": write failed");
   return Status::ok();
 }

@@ -118,22 +118,50 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
           {"references", cfg.references}};
 }
 
+namespace {
+
+// Writes `text` to `f` and closes it; every step's result is checked (a full disk shows at
+// fwrite, fflush, fsync or fclose). The error names `path` and the reason.
+Status writeAndClose(std::FILE* f, const std::string& text, const std::string& path, bool sync) {
+  bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0 &&
+            (!sync || ::fsync(fileno(f)) == 0);
+  int err = ok ? 0 : errno;
+  if (std::fclose(f) != 0 && ok) {
+    ok = false;
+    err = errno;
+  }
+  if (!ok) return Status::error(path + ": write failed (" + std::strerror(err) + ")");
+  return Status::ok();
+}
+
+}  // namespace
+
 Status writeTextAtomic(const std::string& text, const std::filesystem::path& path) {
+  // A device, FIFO or socket (/dev/stdout, /dev/full, a pipe) is written in place: a temp file
+  // renamed over it would replace the device node itself.
+  std::error_code sec;
+  const auto st = std::filesystem::status(path, sec);
+  if (!sec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st) &&
+      !std::filesystem::is_directory(st)) {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (!f) return Status::error(path.string() + ": cannot write (" + std::strerror(errno) + ")");
+    return writeAndClose(f, text, path.string(), false);
+  }
   const auto tmp = path.string() + ".tmp";
   {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) return Status::error(path.string() + ": cannot write (" + std::strerror(errno) + ")");
-    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
-                    std::fflush(f) == 0 && ::fsync(fileno(f)) == 0;
-    const int err = errno;
-    if (std::fclose(f) != 0 || !ok) {
+    if (auto s = writeAndClose(f, text, path.string(), true); !s) {
       std::remove(tmp.c_str());
-      return Status::error(path.string() + ": write failed (" + std::strerror(err) + ")");
+      return s;
     }
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
-  if (ec) return Status::error(path.string() + ": " + ec.message());
+  if (ec) {
+    std::remove(tmp.c_str());
+    return Status::error(path.string() + ": " + ec.message());
+  }
   return Status::ok();
 }
 
@@ -227,17 +255,7 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
          << csvSpreadsheetField(m.value("formula", "")) << "\n";
     }
   }
-  const auto tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out) return Status::error(path.string() + ": cannot write");
-    out << os.str();
-    if (!out) return Status::error(path.string() + ": write failed");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return Status::error(path.string() + ": " + ec.message());
-  return Status::ok();
+  return writeTextAtomic(os.str(), path);
 }
 
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {

@@ -66,13 +66,20 @@ Search::Search(RunConfig cfg, Table table)
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
   cost_.domain = domain_;  // and guards that interval analysis removes cost nothing
-  threads_ = cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads();
+  // Never more threads than the cores this process may use: more only cost memory and
+  // switches, and thousands of them can fail to start (libgomp then ends the process).
+  threads_ =
+      std::min(cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads(), maxThreads());
   scorers_.resize(threads_);
   fitters_.resize(threads_);
   start_ = std::chrono::steady_clock::now();
 }
 
 Search::~Search() = default;
+
+int Search::maxThreads() {
+  return std::max(1, omp_get_num_procs());  // honours the affinity mask (taskset, cgroups)
+}
 
 ConstantFitter& Search::fitter(int thread) {
   auto& f = fitters_[thread];

@@ -44,8 +44,11 @@ inline constexpr size_t kMaxInputFileBytes = size_t{1} << 32;
 // directory", a FIFO, socket or device "<path>: not a regular file" (opened without
 // blocking, so a FIFO cannot stall the reader), a file over max_bytes is refused. Every
 // error names the path.
+// `check`, if given, is called on the open descriptor before anything is read (see
+// data_roots.hpp).
 Expected<std::string> readInputFile(const std::filesystem::path& path,
-                                    size_t max_bytes = kMaxInputFileBytes);
+                                    size_t max_bytes = kMaxInputFileBytes,
+                                    Status (*check)(int fd, const std::string& shown) = nullptr);
 
 struct Table {
   std::vector<std::string> input_names;

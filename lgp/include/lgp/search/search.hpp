@@ -188,6 +188,9 @@ class Search {
   const Table& table() const { return table_; }
   const ProgramShape& shape() const { return shape_; }
   int threads() const { return threads_; }
+  // The most threads a search uses: the cores this process may run on. search.threads above
+  // it (or 0, "all") is capped to it.
+  static int maxThreads();
 
  private:
   struct Individual {
