@@ -200,32 +200,40 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_sh
   const int min_len = std::max(1, shape.num_outputs);
   const bool insert = (n < shape.max_length) && (n <= min_len || rng.chance(0.5));
   if (insert) {
-    const int pos = static_cast<int>(rng.below(n + 1));
+    // Effective insertion (Brameier & Banzhaf): the new opcode lands before the last effective
+    // opcode and feeds a later effective one, so it is never an intron. In "last" mode the
+    // outputs are the last k opcodes: landing among them would make the new opcode an output
+    // and drop one, so it lands before them. With one output it may also land right after
+    // it ("top"): it becomes the output and reads the old one, so y grows into op(y, ..).
+    const int k = static_cast<int>(p.outputs.size());
+    const int last_eff = *std::max_element(p.outputs.begin(), p.outputs.end());
+    const int inner = shape.output_mode == OutputMode::Last ? n - k : last_eff;
+    const int pos = static_cast<int>(rng.below(inner + (k == 1 ? 2 : 1)));
+    const bool top = pos > inner;  // only with one output: pos == last_eff + 1
     for (int i = pos; i < n; ++i)
       for (int a = 0; a < arity(p.code[i].op); ++a) {
         Operand& o = p.code[i].args[a];
         if (o.kind == OperandKind::Reg && o.index >= pos) ++o.index;
       }
-    if (shape.output_mode == OutputMode::Designated)
-      for (auto& o : p.outputs)
-        if (o >= pos) ++o;
+    for (auto& o : p.outputs)  // both modes: the outputs are the same opcodes, shifted
+      if (o >= pos) ++o;
     p.code.insert(p.code.begin() + pos, randomInstr(shape, pos, rng));
-    // Make the new opcode effective (Brameier & Banzhaf's effective insertion): rewire one
-    // operand of a later effective opcode to it.
-    const auto eff = effectiveIndices(p);
-    std::vector<int> later;
-    for (int e : eff)
-      if (e > pos) later.push_back(e);
-    if (!later.empty()) {
+    Instr& ins = p.code[pos];
+    if (top) {
+      ins.args[rng.below(arity(ins.op))] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos - 1)};
+      p.outputs[0] = static_cast<uint8_t>(pos);
+    } else {
+      // Rewire one operand of a later effective opcode (there is one: an output) to it.
+      const auto eff = effectiveIndices(p);
+      std::vector<int> later;
+      for (int e : eff)
+        if (e > pos) later.push_back(e);
       Instr& user = p.code[later[rng.below(static_cast<uint32_t>(later.size()))]];
       const int a = static_cast<int>(rng.below(arity(user.op)));
       // Wrapping keeps the operand it replaces (x becomes op(x, ..)) instead of losing it.
       const Operand old = user.args[a];
       const bool fits = old.kind != OperandKind::Reg || old.index < pos;
-      if (fits && rng.chance(wrap_share)) {
-        Instr& ins = p.code[pos];
-        ins.args[rng.below(arity(ins.op))] = old;
-      }
+      if (fits && rng.chance(wrap_share)) ins.args[rng.below(arity(ins.op))] = old;
       user.args[a] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos)};
     }
   } else if (n > min_len) {

@@ -29,10 +29,13 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
 void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
                  double effective_bias);
 
-// Macro mutation: insert a random opcode (and wire a later effective opcode to it) or delete
-// one (redirecting its users), shifting references. With probability wrap_share an inserted
-// opcode takes the operand it replaces as one of its own, so x becomes op(x, ..) and the
-// program grows around what already works.
+// Macro mutation: insert a random opcode or delete one (redirecting its users), shifting
+// references. An inserted opcode is always effective and the outputs stay the same opcodes: it
+// lands before the last output (in OutputMode::Last, before the last k opcodes) and a later
+// effective opcode is wired to it; with one output it may instead land right after the output
+// and become the output, reading the old one. With probability wrap_share an inserted opcode
+// takes the operand it replaces as one of its own, so x becomes op(x, ..) and the program grows
+// around what already works.
 void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_share = 0.5);
 
 }  // namespace lgp
