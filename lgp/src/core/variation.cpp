@@ -1,6 +1,7 @@
 #include "lgp/core/variation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -154,7 +155,7 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
 }
 
 void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
-                 double effective_bias) {
+                 double effective_bias, double const_min, double const_max) {
   const int n = static_cast<int>(p.code.size());
   int pos;
   if (rng.chance(effective_bias)) {
@@ -175,14 +176,27 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
     const int a = static_cast<int>(rng.below(arity(ins.op)));
     ins.args[a] = randomOperand(shape, pos, rng);
   } else if (u < 0.95 || shape.output_mode != OutputMode::Designated) {
-    // Constant change: perturb a constant this opcode uses, else any slot.
-    int slot = -1;
+    // Constant change, on a constant that changes the program's value where there is one: one
+    // this opcode reads (if effective opcodes read it too), else any one effective opcodes read.
+    const auto live = effectiveConstants(p);
+    const auto is_live = [&](int c) {
+      return live.empty() || std::binary_search(live.begin(), live.end(), c);
+    };
+    std::array<int, kMaxArity> own{};
+    int owned = 0;
     for (int a = 0; a < arity(ins.op); ++a)
-      if (ins.args[a].kind == OperandKind::Const) slot = ins.args[a].index;
-    if (slot < 0) slot = static_cast<int>(rng.below(shape.num_constants));
+      if (ins.args[a].kind == OperandKind::Const && is_live(ins.args[a].index))
+        own[owned++] = ins.args[a].index;
+    int slot;
+    if (owned > 0)
+      slot = own[rng.below(owned)];
+    else if (!live.empty())
+      slot = live[rng.below(static_cast<uint32_t>(live.size()))];
+    else
+      slot = static_cast<int>(rng.below(shape.num_constants));
     float& c = p.constants[slot];
     if (rng.chance(0.1)) {
-      c = static_cast<float>(rng.uniform(-2.0, 2.0));
+      c = static_cast<float>(rng.uniform(const_min, const_max));  // a reset, as at initialisation
     } else {
       const double scale = std::max(std::fabs(static_cast<double>(c)), 0.1);
       c = static_cast<float>(c + constant_sigma * scale * rng.normal());

@@ -482,7 +482,8 @@ void Search::step(bool check_budget) {
     if (rng.chance(var.micro_rate)) {
       const int m = 1 + static_cast<int>(rng.below(var.micro_max));
       for (int k = 0; k < m; ++k)
-        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias);
+        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias,
+                    cfg_.program.const_min, cfg_.program.const_max);
     }
     off[i].program = std::move(child);
   }

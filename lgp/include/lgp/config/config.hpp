@@ -50,7 +50,7 @@ struct ProgramConfig {
   std::vector<Op> ops;                        // allowed operators; empty = kDefaultOps
   int init_min_length = 2;                    // random initial programs: length range
   int init_max_length = 12;
-  double const_min = -2.0;  // initial constants: uniform in [min, max]
+  double const_min = -2.0;  // initial constants and mutation resets: uniform in [min, max]
   double const_max = 2.0;
 };
 

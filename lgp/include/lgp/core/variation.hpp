@@ -25,9 +25,12 @@ Operand randomOperand(const ProgramShape& shape, int position, Rng& rng);
 Program crossover(const Program& a, const Program& b, const ProgramShape& shape, Rng& rng);
 
 // Micro mutation: one operator, operand, output slot (Designated mode) or constant change.
-// With probability effective_bias the target is an effective opcode.
+// With probability effective_bias the target is an effective opcode. A constant change takes
+// a slot that effective opcodes read (the target opcode's own, if it reads one), when any
+// does; it is a relative Gaussian step of constant_sigma, or in one case out of ten a reset,
+// uniform in [const_min, const_max] like the initial constants.
 void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
-                 double effective_bias);
+                 double effective_bias, double const_min = -2.0, double const_max = 2.0);
 
 // Macro mutation: insert a random opcode or delete one (redirecting its users), shifting
 // references. An inserted opcode is always effective and the outputs stay the same opcodes: it
