@@ -154,5 +154,63 @@ TEST_P(ConstantMutation, ResetsWithinTheConfiguredRange) {
 INSTANTIATE_TEST_SUITE_P(Modes, ConstantMutation,
                          ::testing::Values(OutputMode::Last, OutputMode::Designated));
 
+// Crossover carries constants with the structure: the copied segment reads the values it read
+// in b, and the effective opcodes from a read a's values (before the fix, each slot came from
+// b with probability 1/2 whatever read it). Parents have distinct constants in every slot.
+TEST(CrossoverConstants, FollowTheOpcodesThatReadThem) {
+  for (const OutputMode mode : {OutputMode::Last, OutputMode::Designated}) {
+    ProgramShape shape;
+    shape.num_inputs = 2;
+    shape.num_outputs = 1;
+    shape.max_length = 32;
+    shape.num_constants = 8;
+    shape.output_mode = mode;
+    const InitConfig init{2, 16, -2, 2};
+    Rng rng(11);
+    int checked = 0, segment_reads = 0, moved = 0;
+    for (int t = 0; t < 5000; ++t) {
+      const Program a = randomProgram(shape, init, rng);
+      const Program b = randomProgram(shape, init, rng);
+      const int na = static_cast<int>(a.code.size()), nb = static_cast<int>(b.code.size());
+      const int i = rng.below(na), j = i + 1 + static_cast<int>(rng.below(na - i));
+      const int k = rng.below(nb), l = k + 1 + static_cast<int>(rng.below(nb - k));
+      if (na - (j - i) + (l - k) > shape.max_length) continue;
+      const Program c = crossoverAt(a, b, shape, i, j, k, l, rng);
+      ASSERT_TRUE(validate(c, shape)) << validate(c, shape).message();
+      const int s1 = i + (l - k);
+      // Slots read by effective opcodes from a and by the segment: if they cover every slot,
+      // a conflict has nowhere to go and is shared (not checked).
+      std::vector<uint8_t> used(shape.num_constants, 0);
+      const auto eff = effectiveIndices(c);
+      for (int p = 0; p < static_cast<int>(c.code.size()); ++p) {
+        if (p >= i && p < s1 ? false : !contains(eff, p)) continue;
+        for (int q = 0; q < arity(c.code[p].op); ++q)
+          if (c.code[p].args[q].kind == OperandKind::Const) used[c.code[p].args[q].index] = 1;
+      }
+      if (std::count(used.begin(), used.end(), 1) == shape.num_constants) continue;
+      ++checked;
+      for (int p = 0; p < static_cast<int>(c.code.size()); ++p) {
+        const bool segment = p >= i && p < s1;
+        if (!segment && !contains(eff, p)) continue;
+        const Program& from = segment ? b : a;
+        const int q0 = segment ? k + (p - i) : (p < i ? p : p - s1 + j);
+        for (int q = 0; q < arity(c.code[p].op); ++q) {
+          const Operand o = c.code[p].args[q];
+          if (o.kind != OperandKind::Const) continue;
+          const Operand src = from.code[q0].args[q];
+          if (src.kind != OperandKind::Const) continue;  // a repaired reference, drawn anew
+          EXPECT_EQ(c.constants[o.index], from.constants[src.index])
+              << (segment ? "segment" : "from a") << " opcode " << p << " trial " << t;
+          segment_reads += segment;
+          moved += segment && o.index != src.index;
+        }
+      }
+    }
+    EXPECT_GT(checked, 3000);
+    EXPECT_GT(segment_reads, 1000);
+    EXPECT_GT(moved, 0);  // some segments had to move to a free slot
+  }
+}
+
 }  // namespace
 }  // namespace lgp

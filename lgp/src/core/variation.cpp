@@ -43,6 +43,48 @@ void repairAll(Program& p, const ProgramShape& shape, Rng& rng) {
   syncOutputs(p, shape);
 }
 
+// Constants of a crossover child c = a[0:i) + b-segment [s0, s1) + a[j:): the segment reads
+// the values it read in b, and the effective opcodes from a keep a's. A slot both read with
+// different values moves, for the segment, to a slot neither reads; only when there is none
+// do they share it (with a's value, which constant refinement then fits for both).
+void shareSegmentConstants(Program& c, const Program& a, const Program& b, int s0, int s1) {
+  const int nc = static_cast<int>(std::min(c.constants.size(), b.constants.size()));
+  if (nc == 0) return;
+  std::vector<uint8_t> a_reads(nc, 0), seg_reads(nc, 0);
+  const auto reads = [&](const Instr& ins, std::vector<uint8_t>& mark) {
+    for (int q = 0; q < arity(ins.op); ++q)
+      if (ins.args[q].kind == OperandKind::Const && ins.args[q].index < nc)
+        mark[ins.args[q].index] = 1;
+  };
+  for (int e : effectiveIndices(c))
+    if (e < s0 || e >= s1) reads(c.code[e], a_reads);
+  for (int p = s0; p < s1; ++p) reads(c.code[p], seg_reads);
+  std::vector<int> remap(nc, -1);
+  std::vector<uint8_t> taken = a_reads;
+  for (int s = 0; s < nc; ++s)
+    if (seg_reads[s]) taken[s] = 1;
+  for (int s = 0; s < nc; ++s) {
+    if (!seg_reads[s]) continue;
+    remap[s] = s;
+    if (!a_reads[s] || a.constants[s] == b.constants[s]) {
+      c.constants[s] = b.constants[s];
+      continue;
+    }
+    const auto free = std::find(taken.begin(), taken.end(), uint8_t{0});
+    if (free == taken.end()) continue;  // shared, with a's value
+    const int t = static_cast<int>(free - taken.begin());
+    taken[t] = 1;
+    c.constants[t] = b.constants[s];
+    remap[s] = t;
+  }
+  for (int p = s0; p < s1; ++p)
+    for (int q = 0; q < arity(c.code[p].op); ++q) {
+      Operand& o = c.code[p].args[q];
+      if (o.kind == OperandKind::Const && o.index < nc)
+        o.index = static_cast<uint8_t>(remap[o.index]);
+    }
+}
+
 }  // namespace
 
 Operand randomOperand(const ProgramShape& shape, int position, Rng& rng) {
@@ -113,6 +155,13 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
   if (l <= k) l = k + 1;
   new_len = na - (j - i) + (l - k);
   if (new_len > shape.max_length || new_len < min_len) return a;
+  return crossoverAt(a, b, shape, i, j, k, l, rng);
+}
+
+Program crossoverAt(const Program& a, const Program& b, const ProgramShape& shape, int i, int j,
+                    int k, int l, Rng& rng) {
+  const int na = static_cast<int>(a.code.size());
+  const int new_len = na - (j - i) + (l - k);
   const int delta = (l - k) - (j - i);
 
   Program c;
@@ -143,14 +192,12 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
     }
     c.code.push_back(ins);
   }
-  // Constants: mix slots from b with probability 1/2 each (constants are part of the genome).
-  for (size_t s = 0; s < c.constants.size() && s < b.constants.size(); ++s)
-    if (rng.chance(0.5)) c.constants[s] = b.constants[s];
   c.outputs = a.outputs;
   if (shape.output_mode == OutputMode::Designated)
     for (auto& o : c.outputs)
       if (o >= j) o = static_cast<uint8_t>(o + delta);
   repairAll(c, shape, rng);
+  shareSegmentConstants(c, a, b, i, i + (l - k));
   return c;
 }
 

@@ -19,10 +19,18 @@ Program randomProgram(const ProgramShape& shape, const InitConfig& init, Rng& rn
 Instr randomInstr(const ProgramShape& shape, int position, Rng& rng);
 Operand randomOperand(const ProgramShape& shape, int position, Rng& rng);
 
-// Two-segment linear crossover: child = a[0:i) + b[k:l) + a[j:). The segment is copied
-// blindly; references are then remapped so that they still point at earlier opcodes
-// (relative offsets inside the segment are preserved).
+// Two-segment linear crossover: child = a[0:i) + b[k:l) + a[j:), at random points (segments of
+// at most 8 opcodes; a itself when no child of a valid length results). See crossoverAt.
 Program crossover(const Program& a, const Program& b, const ProgramShape& shape, Rng& rng);
+
+// The crossover child a[0:i) + b[k:l) + a[j:), for 0 <= i < j <= |a| and 0 <= k < l <= |b|
+// giving a valid length. The segment is copied blindly; references are then remapped so that
+// they still point at earlier opcodes (relative offsets inside the segment are preserved).
+// Constants follow the structure: the segment reads the values it read in b, and the
+// effective opcodes from a read a's; where both read one slot with different values, the
+// segment's copy moves to a slot neither reads (shared, with a's value, only if none is free).
+Program crossoverAt(const Program& a, const Program& b, const ProgramShape& shape, int i, int j,
+                    int k, int l, Rng& rng);
 
 // Micro mutation: one operator, operand, output slot (Designated mode) or constant change.
 // With probability effective_bias the target is an effective opcode. A constant change takes
