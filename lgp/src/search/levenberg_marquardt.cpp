@@ -224,7 +224,10 @@ struct ConstantFitter::Impl {
     }
     if (!from_raw) {
       jac.setParameters(x.data());
-      ++evaluations;
+      // A Jacobian pass computes, beside the values, one derivative column per constant for
+      // every opcode that depends on it: up to the work of 1 + np forward passes, what a
+      // finite-difference Jacobian would cost. The budget counts it so.
+      evaluations += jacobian ? 1 + np : 1;
     }
     double sse = 0;
     for (size_t blk = 0; blk * bs < n; ++blk) {

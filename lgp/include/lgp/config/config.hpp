@@ -141,9 +141,10 @@ struct IslandConfig {
 };
 
 struct SearchConfig {
-  int population = 400;          // individuals per generation, all islands together
-  int generations = 100;         // budget; 0 = unlimited (then another budget must be set)
-  uint64_t max_evaluations = 0;  // budget in program evaluations; 0 = unlimited
+  int population = 400;   // individuals per generation, all islands together
+  int generations = 100;  // budget; 0 = unlimited (then another budget must be set)
+  // Budget in program evaluations (a Jacobian pass over n constants counts 1 + n); 0 = none.
+  uint64_t max_evaluations = 0;
   double wall_time_s = 0;        // budget in seconds; 0 = unlimited
   uint64_t seed = 1;             // same seed + config + threads => same front
   int threads = 0;               // OpenMP threads; 0 = all cores

@@ -42,7 +42,10 @@ struct ConstantFitResult {
   double sse_before = std::numeric_limits<double>::infinity();  // weighted sum of squared
   double sse_after = std::numeric_limits<double>::infinity();   // residuals (see above)
   int iterations = 0;                                           // solver iterations run
-  int evaluations = 0;    // residual passes + Jacobian passes (each one program evaluation)
+  // Program evaluations spent: a residual pass counts 1, a Jacobian pass 1 + the number of
+  // constants fitted (a forward-mode pass computes a derivative column per constant beside
+  // the values: the work of that many forward passes, as for finite differences).
+  int evaluations = 0;
   int non_finite = 0;     // trial points rejected because a residual was not finite
   bool improved = false;  // the constants were replaced (sse_after < sse_before)
 };

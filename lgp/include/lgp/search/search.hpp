@@ -18,8 +18,9 @@
 //      sends first-front members to the next (migration.hpp); every `archive_period`
 //      generations archive members not yet fully refined get the full refinement and rejoin
 //      the islands.
-// Budgets: generations, evaluations (refinement evaluations included), wall time, or a stop
-// request (Ctrl-C); the check happens between generations.
+// Budgets: generations, evaluations (refinement evaluations included; an LM Jacobian pass
+// over n constants counts 1 + n, see ConstantFitResult), wall time, or a stop request
+// (Ctrl-C); the check happens between generations.
 //
 // Determinism: with the same config, seed and thread count (and no wall-time budget) the
 // front is identical; in fact every per-program computation is sequential, so it is identical
