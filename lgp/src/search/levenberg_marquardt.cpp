@@ -509,8 +509,16 @@ ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig
     ++res.iterations;
     const double prev = sse;
     sse = lm.fnorm() * lm.fnorm();
-    if (status != Eigen::LevenbergMarquardtSpace::Running) break;
-    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) break;
+    if (status != Eigen::LevenbergMarquardtSpace::Running) {
+      using namespace Eigen::LevenbergMarquardtSpace;
+      res.converged = status != TooManyFunctionEvaluation && status != ImproperInputParameters &&
+                      status != UserAsked;
+      break;
+    }
+    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) {
+      res.converged = true;
+      break;
+    }
   }
   res.evaluations = m.evaluations;
   res.non_finite = m.non_finite;

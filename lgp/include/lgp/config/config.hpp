@@ -101,8 +101,9 @@ enum class RefineMethod : uint8_t {
 
 // Constant refinement. Offspring picked for it (offspring_share) get lm_iterations of
 // Levenberg-Marquardt with exact Jacobians, and a quick Nelder-Mead polish only where that did
-// not improve them; archive members get archive_lm_iterations of LM, then the full
-// derivative-free refinement (`method`).
+// not improve them, unless LM converged on the error itself (rmse of one channel: then the
+// constants are already at its optimum); archive members get archive_lm_iterations of LM, then the
+// full derivative-free refinement (`method`).
 struct NelderMeadSchedule {
   double offspring_share = 1.0;    // share of each generation's offspring refined
   int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free

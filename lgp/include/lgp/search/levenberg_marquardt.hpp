@@ -48,6 +48,9 @@ struct ConstantFitResult {
   int evaluations = 0;
   int non_finite = 0;     // trial points rejected because a residual was not finite
   bool improved = false;  // the constants were replaced (sse_after < sse_before)
+  // The solver stopped because the sum of squares stopped decreasing (a local minimum within
+  // float32 resolution), not for want of iterations or evaluations.
+  bool converged = false;
 };
 
 // Fits the effective constants of programs to a Dataset (which must outlive it). One instance

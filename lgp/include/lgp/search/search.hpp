@@ -257,6 +257,9 @@ class Search {
   double elapsed_before_ = 0;  // from restored checkpoints
   std::chrono::steady_clock::time_point start_;
   std::atomic<bool> stop_{false};
+  // LM's least squares is the error the scorer measures (rmse of one channel, and no target
+  // transform under linear scaling): where LM has converged, Nelder-Mead has nothing to add.
+  bool lm_fits_the_error_ = false;
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
   std::vector<Program> seeds_;
   std::string adopted_stop_;      // set by adopt()
