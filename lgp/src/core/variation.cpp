@@ -1,6 +1,7 @@
 #include "lgp/core/variation.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
@@ -40,6 +41,48 @@ void repairAll(Program& p, const ProgramShape& shape, Rng& rng) {
     for (int a = 0; a < kMaxArity; ++a)
       p.code[i].args[a] = fixOperand(p.code[i].args[a], i, shape, rng);
   syncOutputs(p, shape);
+}
+
+// Constants of a crossover child c = a[0:i) + b-segment [s0, s1) + a[j:): the segment reads
+// the values it read in b, and the effective opcodes from a keep a's. A slot both read with
+// different values moves, for the segment, to a slot neither reads; only when there is none
+// do they share it (with a's value, which constant refinement then fits for both).
+void shareSegmentConstants(Program& c, const Program& a, const Program& b, int s0, int s1) {
+  const int nc = static_cast<int>(std::min(c.constants.size(), b.constants.size()));
+  if (nc == 0) return;
+  std::vector<uint8_t> a_reads(nc, 0), seg_reads(nc, 0);
+  const auto reads = [&](const Instr& ins, std::vector<uint8_t>& mark) {
+    for (int q = 0; q < arity(ins.op); ++q)
+      if (ins.args[q].kind == OperandKind::Const && ins.args[q].index < nc)
+        mark[ins.args[q].index] = 1;
+  };
+  for (int e : effectiveIndices(c))
+    if (e < s0 || e >= s1) reads(c.code[e], a_reads);
+  for (int p = s0; p < s1; ++p) reads(c.code[p], seg_reads);
+  std::vector<int> remap(nc, -1);
+  std::vector<uint8_t> taken = a_reads;
+  for (int s = 0; s < nc; ++s)
+    if (seg_reads[s]) taken[s] = 1;
+  for (int s = 0; s < nc; ++s) {
+    if (!seg_reads[s]) continue;
+    remap[s] = s;
+    if (!a_reads[s] || a.constants[s] == b.constants[s]) {
+      c.constants[s] = b.constants[s];
+      continue;
+    }
+    const auto free = std::find(taken.begin(), taken.end(), uint8_t{0});
+    if (free == taken.end()) continue;  // shared, with a's value
+    const int t = static_cast<int>(free - taken.begin());
+    taken[t] = 1;
+    c.constants[t] = b.constants[s];
+    remap[s] = t;
+  }
+  for (int p = s0; p < s1; ++p)
+    for (int q = 0; q < arity(c.code[p].op); ++q) {
+      Operand& o = c.code[p].args[q];
+      if (o.kind == OperandKind::Const && o.index < nc)
+        o.index = static_cast<uint8_t>(remap[o.index]);
+    }
 }
 
 }  // namespace
@@ -112,6 +155,13 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
   if (l <= k) l = k + 1;
   new_len = na - (j - i) + (l - k);
   if (new_len > shape.max_length || new_len < min_len) return a;
+  return crossoverAt(a, b, shape, i, j, k, l, rng);
+}
+
+Program crossoverAt(const Program& a, const Program& b, const ProgramShape& shape, int i, int j,
+                    int k, int l, Rng& rng) {
+  const int na = static_cast<int>(a.code.size());
+  const int new_len = na - (j - i) + (l - k);
   const int delta = (l - k) - (j - i);
 
   Program c;
@@ -142,19 +192,17 @@ Program crossover(const Program& a, const Program& b, const ProgramShape& shape,
     }
     c.code.push_back(ins);
   }
-  // Constants: mix slots from b with probability 1/2 each (constants are part of the genome).
-  for (size_t s = 0; s < c.constants.size() && s < b.constants.size(); ++s)
-    if (rng.chance(0.5)) c.constants[s] = b.constants[s];
   c.outputs = a.outputs;
   if (shape.output_mode == OutputMode::Designated)
     for (auto& o : c.outputs)
       if (o >= j) o = static_cast<uint8_t>(o + delta);
   repairAll(c, shape, rng);
+  shareSegmentConstants(c, a, b, i, i + (l - k));
   return c;
 }
 
 void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constant_sigma,
-                 double effective_bias) {
+                 double effective_bias, double const_min, double const_max) {
   const int n = static_cast<int>(p.code.size());
   int pos;
   if (rng.chance(effective_bias)) {
@@ -175,14 +223,27 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
     const int a = static_cast<int>(rng.below(arity(ins.op)));
     ins.args[a] = randomOperand(shape, pos, rng);
   } else if (u < 0.95 || shape.output_mode != OutputMode::Designated) {
-    // Constant change: perturb a constant this opcode uses, else any slot.
-    int slot = -1;
+    // Constant change, on a constant that changes the program's value where there is one: one
+    // this opcode reads (if effective opcodes read it too), else any one effective opcodes read.
+    const auto live = effectiveConstants(p);
+    const auto is_live = [&](int c) {
+      return live.empty() || std::binary_search(live.begin(), live.end(), c);
+    };
+    std::array<int, kMaxArity> own{};
+    int owned = 0;
     for (int a = 0; a < arity(ins.op); ++a)
-      if (ins.args[a].kind == OperandKind::Const) slot = ins.args[a].index;
-    if (slot < 0) slot = static_cast<int>(rng.below(shape.num_constants));
+      if (ins.args[a].kind == OperandKind::Const && is_live(ins.args[a].index))
+        own[owned++] = ins.args[a].index;
+    int slot;
+    if (owned > 0)
+      slot = own[rng.below(owned)];
+    else if (!live.empty())
+      slot = live[rng.below(static_cast<uint32_t>(live.size()))];
+    else
+      slot = static_cast<int>(rng.below(shape.num_constants));
     float& c = p.constants[slot];
     if (rng.chance(0.1)) {
-      c = static_cast<float>(rng.uniform(-2.0, 2.0));
+      c = static_cast<float>(rng.uniform(const_min, const_max));  // a reset, as at initialisation
     } else {
       const double scale = std::max(std::fabs(static_cast<double>(c)), 0.1);
       c = static_cast<float>(c + constant_sigma * scale * rng.normal());
@@ -200,32 +261,40 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_sh
   const int min_len = std::max(1, shape.num_outputs);
   const bool insert = (n < shape.max_length) && (n <= min_len || rng.chance(0.5));
   if (insert) {
-    const int pos = static_cast<int>(rng.below(n + 1));
+    // Effective insertion (Brameier & Banzhaf): the new opcode lands before the last effective
+    // opcode and feeds a later effective one, so it is never an intron. In "last" mode the
+    // outputs are the last k opcodes: landing among them would make the new opcode an output
+    // and drop one, so it lands before them. With one output it may also land right after
+    // it ("top"): it becomes the output and reads the old one, so y grows into op(y, ..).
+    const int k = static_cast<int>(p.outputs.size());
+    const int last_eff = *std::max_element(p.outputs.begin(), p.outputs.end());
+    const int inner = shape.output_mode == OutputMode::Last ? n - k : last_eff;
+    const int pos = static_cast<int>(rng.below(inner + (k == 1 ? 2 : 1)));
+    const bool top = pos > inner;  // only with one output: pos == last_eff + 1
     for (int i = pos; i < n; ++i)
       for (int a = 0; a < arity(p.code[i].op); ++a) {
         Operand& o = p.code[i].args[a];
         if (o.kind == OperandKind::Reg && o.index >= pos) ++o.index;
       }
-    if (shape.output_mode == OutputMode::Designated)
-      for (auto& o : p.outputs)
-        if (o >= pos) ++o;
+    for (auto& o : p.outputs)  // both modes: the outputs are the same opcodes, shifted
+      if (o >= pos) ++o;
     p.code.insert(p.code.begin() + pos, randomInstr(shape, pos, rng));
-    // Make the new opcode effective (Brameier & Banzhaf's effective insertion): rewire one
-    // operand of a later effective opcode to it.
-    const auto eff = effectiveIndices(p);
-    std::vector<int> later;
-    for (int e : eff)
-      if (e > pos) later.push_back(e);
-    if (!later.empty()) {
+    Instr& ins = p.code[pos];
+    if (top) {
+      ins.args[rng.below(arity(ins.op))] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos - 1)};
+      p.outputs[0] = static_cast<uint8_t>(pos);
+    } else {
+      // Rewire one operand of a later effective opcode (there is one: an output) to it.
+      const auto eff = effectiveIndices(p);
+      std::vector<int> later;
+      for (int e : eff)
+        if (e > pos) later.push_back(e);
       Instr& user = p.code[later[rng.below(static_cast<uint32_t>(later.size()))]];
       const int a = static_cast<int>(rng.below(arity(user.op)));
       // Wrapping keeps the operand it replaces (x becomes op(x, ..)) instead of losing it.
       const Operand old = user.args[a];
       const bool fits = old.kind != OperandKind::Reg || old.index < pos;
-      if (fits && rng.chance(wrap_share)) {
-        Instr& ins = p.code[pos];
-        ins.args[rng.below(arity(ins.op))] = old;
-      }
+      if (fits && rng.chance(wrap_share)) ins.args[rng.below(arity(ins.op))] = old;
       user.args[a] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos)};
     }
   } else if (n > min_len) {

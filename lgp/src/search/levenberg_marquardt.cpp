@@ -224,7 +224,10 @@ struct ConstantFitter::Impl {
     }
     if (!from_raw) {
       jac.setParameters(x.data());
-      ++evaluations;
+      // A Jacobian pass computes, beside the values, one derivative column per constant for
+      // every opcode that depends on it: up to the work of 1 + np forward passes, what a
+      // finite-difference Jacobian would cost. The budget counts it so.
+      evaluations += jacobian ? 1 + np : 1;
     }
     double sse = 0;
     for (size_t blk = 0; blk * bs < n; ++blk) {
@@ -506,8 +509,16 @@ ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig
     ++res.iterations;
     const double prev = sse;
     sse = lm.fnorm() * lm.fnorm();
-    if (status != Eigen::LevenbergMarquardtSpace::Running) break;
-    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) break;
+    if (status != Eigen::LevenbergMarquardtSpace::Running) {
+      using namespace Eigen::LevenbergMarquardtSpace;
+      res.converged = status != TooManyFunctionEvaluation && status != ImproperInputParameters &&
+                      status != UserAsked;
+      break;
+    }
+    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) {
+      res.converged = true;
+      break;
+    }
   }
   res.evaluations = m.evaluations;
   res.non_finite = m.non_finite;

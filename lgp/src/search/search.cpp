@@ -63,6 +63,14 @@ Search::Search(RunConfig cfg, Table table)
       archive_(cfg_.search.archive) {
   transform_cost_ = cost_.transformCost(err_cfg_.transforms);
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
+  {
+    const size_t channels =
+        err_cfg_.channels.empty() ? table_.numOutputs() : err_cfg_.channels.size();
+    bool transformed = false;
+    for (TargetTransform t : err_cfg_.transforms) transformed |= t != TargetTransform::None;
+    lm_fits_the_error_ = err_cfg_.metric == ErrorMetric::Rmse && channels == 1 &&
+                         !(err_cfg_.linear_scaling && transformed);
+  }
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
   cost_.domain = domain_;  // and guards that interval analysis removes cost nothing
@@ -127,6 +135,10 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
     lm.max_iterations = lm_iterations;
     const auto fit = fitter(thread).fit(work, lm);
     evals += static_cast<uint64_t>(fit.evaluations);
+    // Constants already at LM's optimum (clones and intron-only mutants of refined parents,
+    // mostly) of the error the scorer measures: a quick Nelder-Mead polish from there finds
+    // nothing, so it is skipped. Other metrics (max_abs, say) still get it.
+    if (!full && !fit.improved && fit.converged && lm_fits_the_error_) return;
     if (fit.improved) {
       const Objectives o = score(s, work);
       ++evals;
@@ -489,7 +501,8 @@ void Search::step(bool check_budget) {
     if (rng.chance(var.micro_rate)) {
       const int m = 1 + static_cast<int>(rng.below(var.micro_max));
       for (int k = 0; k < m; ++k)
-        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias);
+        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias,
+                    cfg_.program.const_min, cfg_.program.const_max);
     }
     off[i].program = std::move(child);
   }

@@ -50,7 +50,7 @@ struct ProgramConfig {
   std::vector<Op> ops;                        // allowed operators; empty = kDefaultOps
   int init_min_length = 2;                    // random initial programs: length range
   int init_max_length = 12;
-  double const_min = -2.0;  // initial constants: uniform in [min, max]
+  double const_min = -2.0;  // initial constants and mutation resets: uniform in [min, max]
   double const_max = 2.0;
 };
 
@@ -101,8 +101,9 @@ enum class RefineMethod : uint8_t {
 
 // Constant refinement. Offspring picked for it (offspring_share) get lm_iterations of
 // Levenberg-Marquardt with exact Jacobians, and a quick Nelder-Mead polish only where that did
-// not improve them; archive members get archive_lm_iterations of LM, then the full
-// derivative-free refinement (`method`).
+// not improve them, unless LM converged on the error itself (rmse of one channel: then the
+// constants are already at its optimum); archive members get archive_lm_iterations of LM, then the
+// full derivative-free refinement (`method`).
 struct NelderMeadSchedule {
   double offspring_share = 1.0;    // share of each generation's offspring refined
   int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free
@@ -152,9 +153,10 @@ struct ExhaustiveConfig {
 };
 
 struct SearchConfig {
-  int population = 400;          // individuals per generation, all islands together
-  int generations = 100;         // budget; 0 = unlimited (then another budget must be set)
-  uint64_t max_evaluations = 0;  // budget in program evaluations; 0 = unlimited
+  int population = 400;   // individuals per generation, all islands together
+  int generations = 100;  // budget; 0 = unlimited (then another budget must be set)
+  // Budget in program evaluations (a Jacobian pass over n constants counts 1 + n); 0 = none.
+  uint64_t max_evaluations = 0;
   double wall_time_s = 0;        // budget in seconds; 0 = unlimited
   uint64_t seed = 1;             // same seed + config + threads => same front
   int threads = 0;               // OpenMP threads; 0 = all cores

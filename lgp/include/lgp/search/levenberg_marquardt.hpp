@@ -42,9 +42,15 @@ struct ConstantFitResult {
   double sse_before = std::numeric_limits<double>::infinity();  // weighted sum of squared
   double sse_after = std::numeric_limits<double>::infinity();   // residuals (see above)
   int iterations = 0;                                           // solver iterations run
-  int evaluations = 0;    // residual passes + Jacobian passes (each one program evaluation)
+  // Program evaluations spent: a residual pass counts 1, a Jacobian pass 1 + the number of
+  // constants fitted (a forward-mode pass computes a derivative column per constant beside
+  // the values: the work of that many forward passes, as for finite differences).
+  int evaluations = 0;
   int non_finite = 0;     // trial points rejected because a residual was not finite
   bool improved = false;  // the constants were replaced (sse_after < sse_before)
+  // The solver stopped because the sum of squares stopped decreasing (a local minimum within
+  // float32 resolution), not for want of iterations or evaluations.
+  bool converged = false;
 };
 
 // Fits the effective constants of programs to a Dataset (which must outlive it). One instance

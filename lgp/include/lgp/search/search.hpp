@@ -18,8 +18,9 @@
 //      sends first-front members to the next (migration.hpp); every `archive_period`
 //      generations archive members not yet fully refined get the full refinement and rejoin
 //      the islands.
-// Budgets: generations, evaluations (refinement evaluations included), wall time, or a stop
-// request (Ctrl-C); the check happens between generations.
+// Budgets: generations, evaluations (refinement evaluations included; an LM Jacobian pass
+// over n constants counts 1 + n, see ConstantFitResult), wall time, or a stop request
+// (Ctrl-C); the check happens between generations.
 //
 // Determinism: with the same config, seed and thread count (and no wall-time budget) the
 // front is identical; in fact every per-program computation is sequential, so it is identical
@@ -259,6 +260,9 @@ class Search {
   double elapsed_before_ = 0;  // from restored checkpoints
   std::chrono::steady_clock::time_point start_;
   std::atomic<bool> stop_{false};
+  // LM's least squares is the error the scorer measures (rmse of one channel, and no target
+  // transform under linear scaling): where LM has converged, Nelder-Mead has nothing to add.
+  bool lm_fits_the_error_ = false;
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
   std::vector<Program> seeds_;
   std::string adopted_stop_;      // set by adopt()
