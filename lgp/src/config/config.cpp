@@ -366,8 +366,8 @@ void parseExhaustive(const nlohmann::json& j, ExhaustiveConfig& c) {
   o.integer("max_ops", c.max_ops, 0, 6);
   if (o.has("ops")) {
     const auto& v = o.at("ops");
-    if (!v.is_array() || v.empty())
-      fail("/search/exhaustive/ops", "must be a non-empty array of operator names");
+    // Empty: the program's operators (what toJson writes for the default).
+    if (!v.is_array()) fail("/search/exhaustive/ops", "must be an array of operator names");
     c.ops.clear();
     std::set<Op> seen;
     for (size_t i = 0; i < v.size(); ++i) {
