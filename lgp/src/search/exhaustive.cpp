@@ -259,11 +259,11 @@ nlohmann::json ExhaustiveResult::toJson(const RunConfig& cfg, const Table& t) co
           {"complete_ops", complete_ops},
           {"fitted", fitted},
           {"seconds", seconds},
-          {"constant_fit",
-           "Levenberg-Marquardt from +1 on " + std::to_string(x.screen_rows) +
-               " rows (8 iterations), the best " + std::to_string(x.keep) +
-               " per operator count refitted from those constants, +1 and -1 on every row (local: a better constant may "
-               "exist)"},
+          {"constant_fit", "Levenberg-Marquardt from +1 on " + std::to_string(x.screen_rows) +
+                               " rows (8 iterations), the best " + std::to_string(x.keep) +
+                               " per operator count refitted from those constants, +1 and -1 on "
+                               "every row (local: a better constant may "
+                               "exist)"},
           {"best", best}};
 }
 
