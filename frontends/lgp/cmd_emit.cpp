@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <cstring>
 #include <cxxopts.hpp>
-#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -27,23 +26,6 @@ std::string num(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.3g", v);
   return std::isfinite(v) ? b : "inf";
-}
-
-// `-o`: a file through a temporary one, so that a failed write (a full disk) leaves no
-// truncated file behind; a device or pipe (/dev/stdout, a FIFO) written in place. Either way a
-// failed write is an error.
-lgp::Status writeOut(const std::string& text, const std::string& path) {
-  std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(st) || std::filesystem::is_regular_file(st))
-    return lgp::writeTextAtomic(text, path);
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) return lgp::Status::error(path + ": cannot write (" + std::strerror(errno) + ")");
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0;
-  const int err = errno;
-  if (std::fclose(f) != 0 || !ok)
-    return lgp::Status::error(path + ": write failed (" + std::strerror(ok ? errno : err) + ")");
-  return lgp::Status::ok();
 }
 
 // `--verify vulkan`: every language and precision on lavapipe; the report goes to stderr so that
@@ -225,8 +207,10 @@ int emitMain(int argc, char** argv) {
                                     : lgp::emit::emitMeasured(*in, *lang, eo);
   if (!e) return fail(e.error());
   if (args.count("out")) {
-    const std::string out = args["out"].as<std::string>();
-    if (auto st = writeOut(e->code, out); !st) return fail(st.message());
+    // Through a temporary file, a device or pipe in place (writeTextAtomic): a failed write
+    // is an error and never leaves a truncated file.
+    if (auto st = lgp::writeTextAtomic(e->code, args["out"].as<std::string>()); !st)
+      return fail(st.message());
   } else {
     std::cout << e->code << std::flush;
     if (!std::cout || std::fflush(stdout) != 0)
