@@ -33,6 +33,18 @@ Expected<std::vector<NamedProgram>> referenceSeeds(const RunConfig& cfg, const T
 #endif
 }
 
+Status checkRunMode(const RunConfig& cfg, bool has_seeds, bool distributed) {
+  const bool two_step = cfg.search.multi_output.mode == MultiOutputMode::TwoStep;
+  if (two_step && has_seeds)
+    return Status::error("/search/seed_references: not available with two_step");
+  if (cfg.objectives.measured_cost.in_search && (two_step || distributed))
+    return Status::error(
+        "/objectives/measured_cost/in_search: runs in one process with one step only");
+  if (cfg.search.exhaustive.max_ops > 0 && (two_step || distributed))
+    return Status::error("/search/exhaustive: runs in one process with one step only");
+  return Status::ok();
+}
+
 Status enableArchiveMeasuredCost(Search& s) {
 #ifdef LGP_HAVE_EMIT
   return emit::enableMeasuredCostInSearch(s);
@@ -54,6 +66,17 @@ Expected<nlohmann::json> runExhaustive(Search& s) {
   nlohmann::json cert = res->toJson(s.config(), s.table());
   cert["seeded"] = seeds.size() - skipped.size();
   return cert;
+}
+
+std::string emptyFrontMessage(const Search& s) {
+  const auto p = s.progress();
+  return "the search ended with an empty front: " +
+         (p.evaluations == 0
+              ? std::string("no program was evaluated (stopped before the first generation)")
+              : "none of the " + std::to_string(p.evaluations) +
+                    " programs evaluated had a finite error, cost and discontinuity (NaN and "
+                    "infinite errors are never kept): the targets, weights or target transforms "
+                    "overflow the float32 evaluation or its sums");
 }
 
 std::string addFrontExtras(nlohmann::json& front, const Search& s) {

@@ -162,12 +162,8 @@ int runMain(int argc, char** argv) {
     if (!progs) return fail(progs.error(), 2);
     seeds = std::move(*progs);
   }
-  if (two_step && !seeds.empty())
-    return fail("/search/seed_references: not available with two_step", 2);
-  if (cfg->objectives.measured_cost.in_search && (two_step || distributed))
-    return fail("/objectives/measured_cost/in_search: runs in one process with one step only", 2);
-  if (cfg->search.exhaustive.max_ops > 0 && (two_step || distributed))
-    return fail("/search/exhaustive: runs in one process with one step only", 2);
+  if (auto st = lgp::cli::checkRunMode(*cfg, !seeds.empty(), distributed); !st)
+    return fail(st.message(), 2);
   nlohmann::json exhaustive;  // the enumeration's certificate (search.exhaustive)
   std::unique_ptr<lgp::Search> single;
   std::unique_ptr<lgp::TwoStepSearch> stepped;
@@ -307,17 +303,9 @@ int runMain(int argc, char** argv) {
   if (front.empty()) {
     // Not a result: every program scored NaN or infinity (which the archive never keeps), or
     // none was scored. No front is written, and the exit status says the run failed.
-    const auto p = search.progress();
-    std::string why =
-        p.evaluations == 0
-            ? "no program was evaluated (stopped before the first generation)"
-            : "none of the " + std::to_string(p.evaluations) +
-                  " programs evaluated had a finite error, cost and discontinuity (NaN and "
-                  "infinite errors are never kept): the targets, weights or target transforms "
-                  "overflow the float32 evaluation or its sums";
-    return fail("the search ended with an empty front: " + why + "; no front written to " +
-                    cfg->output.front_json,
-                g_interrupts.load() > 0 ? 130 : 1);
+    return fail(
+        lgp::cli::emptyFrontMessage(search) + "; no front written to " + cfg->output.front_json,
+        g_interrupts.load() > 0 ? 130 : 1);
   }
   auto j = lgp::frontToJson(search, front);
   if (!mpi_stats.is_null()) j["progress"]["mpi"] = mpi_stats;

@@ -115,7 +115,7 @@ lgp::RunConfig parseConfig(const std::string& text, const std::string& base_dir)
 class PythonTicker {
  public:
   PythonTicker(py::object progress, double interval) : progress_(progress), interval_(interval) {}
-  // With the GIL released. True when the search should stop.
+  // With the GIL released; `force`: now, whatever the time since the last call.
   void tick(const std::function<lgp::SearchProgress()>& progress, bool force,
             const std::function<void()>& stop) {
     const auto now = std::chrono::steady_clock::now();
@@ -154,13 +154,7 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
   if (auto st = lgp::cli::checkRunReferences(cfg, table); !st) valueError(st.message());
   auto seeds = orRaise(lgp::cli::referenceSeeds(cfg, table));
   const bool two_step = cfg.search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
-  if (two_step && !seeds.empty())
-    valueError("/search/seed_references: not available with two_step");
-  if (two_step && cfg.objectives.measured_cost.in_search)
-    valueError("/objectives/measured_cost/in_search: runs with one step only");
-
-  if (two_step && cfg.search.exhaustive.max_ops > 0)
-    valueError("/search/exhaustive: runs with one step only");
+  if (auto st = lgp::cli::checkRunMode(cfg, !seeds.empty(), false); !st) valueError(st.message());
   PythonTicker ticker(progress, progress_interval);
   nlohmann::json exhaustive;
   std::unique_ptr<lgp::Search> single;
@@ -210,15 +204,7 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
       note = lgp::cli::addFrontExtras(front, search);
     }
   }
-  if (front.is_null()) {
-    const auto p = search.progress();
-    valueError(p.evaluations == 0
-                   ? "the search ended with an empty front: no program was evaluated"
-                   : "the search ended with an empty front: none of the " +
-                         std::to_string(p.evaluations) +
-                         " programs evaluated had a finite error, cost and discontinuity "
-                         "(the targets, weights or transforms overflow float32)");
-  }
+  if (front.is_null()) valueError(lgp::cli::emptyFrontMessage(search));
   for (const auto& why : warnings) note += (note.empty() ? "" : "\n") + ("not seeded: " + why);
   return py::make_tuple(front.dump(), ticker.interrupted(), note);
 }
