@@ -233,13 +233,22 @@ struct Fitters {
   std::vector<std::unique_ptr<ConstantFitter>> fitters;
 };
 
+// The operators enumerated: search.exhaustive.ops, else the program's, else the default set;
+// select (four operands) left out.
+std::vector<Op> enumeratedOps(const RunConfig& cfg) {
+  const auto& x = cfg.search.exhaustive;
+  std::vector<Op> ops = x.ops.empty() ? cfg.program.ops : x.ops;
+  if (ops.empty()) ops = defaultOps();
+  ops.erase(std::remove_if(ops.begin(), ops.end(), [](Op op) { return arity(op) > 3; }), ops.end());
+  return ops;
+}
+
 }  // namespace
 
 nlohmann::json ExhaustiveResult::toJson(const RunConfig& cfg, const Table& t) const {
   const auto& x = cfg.search.exhaustive;
   nlohmann::json ops = nlohmann::json::array();
-  for (Op op : x.ops.empty() ? (cfg.program.ops.empty() ? defaultOps() : cfg.program.ops) : x.ops)
-    if (arity(op) <= 3) ops.push_back(std::string(opName(op)));
+  for (Op op : enumeratedOps(cfg)) ops.push_back(std::string(opName(op)));
   nlohmann::json best = nlohmann::json::array();
   for (size_t k = 1; k < best_by_ops.size(); ++k) {
     const auto& m = best_by_ops[k];
@@ -277,9 +286,9 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
   auto seconds = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
-  std::vector<Op> ops = x.ops.empty() ? cfg.program.ops : x.ops;
-  if (ops.empty()) ops = defaultOps();
-  ops.erase(std::remove_if(ops.begin(), ops.end(), [](Op op) { return arity(op) > 3; }), ops.end());
+  const std::vector<Op> ops = enumeratedOps(cfg);
+  const auto deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(x.seconds));
 
   ErrorConfig err = cfg.errorConfig(t.output_names);
   err.linear_scaling = cfg.search.linear_scaling;
@@ -303,8 +312,6 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
   std::vector<ExhaustiveMember> all;
   Enumerator en(static_cast<int>(t.numInputs()), ops, x.constants);
   for (int s = 1; s <= x.max_ops; ++s) {
-    const auto deadline = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                   std::chrono::duration<double>(x.seconds));
     if (seconds() > x.seconds || !en.grow(s, deadline)) break;
     const auto& level = en.level(s);
     res.enumerated.push_back(level.size());
