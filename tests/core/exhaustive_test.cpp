@@ -4,29 +4,18 @@
 
 #include <chrono>
 #include <cmath>
-#include <functional>
 
 #include "lgp/config/config.hpp"
 #include "lgp/search/exhaustive.hpp"
+#include "test_tables.hpp"
 
 namespace {
 
 using namespace lgp;
 
-Table table(int n, const std::function<double(double, double)>& f) {
-  Table t;
-  t.input_names = {"x", "y"};
-  t.output_names = {"f"};
-  t.inputs.resize(2);
-  t.outputs.resize(1);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const double x = (i + 0.5) / n, y = (j + 0.5) / n;
-      t.inputs[0].push_back(x);
-      t.inputs[1].push_back(y);
-      t.outputs[0].push_back(f(x, y));
-    }
-  return t;
+template <class F>
+Table table(int n, F f) {
+  return test::gridTableOf(n, f, "x", "y", "f");
 }
 
 RunConfig config(std::vector<Op> ops, int max_ops) {

@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "lgp/core/rng.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
+#include "test_tables.hpp"
 
 namespace lgp {
 namespace {
@@ -28,18 +28,7 @@ Program polynomial(int n) {
 }
 
 Table cubicTable() {
-  Table t;
-  Rng rng(5);
-  t.input_names = {"x"};
-  t.output_names = {"y"};
-  t.inputs.resize(1);
-  t.outputs.resize(1);
-  for (int r = 0; r < 400; ++r) {
-    const double x = rng.uniform(-1, 1);
-    t.inputs[0].push_back(x);
-    t.outputs[0].push_back(0.5 - x + 0.25 * x * x * x);
-  }
-  return t;
+  return test::sampledTable(400, 5, [](double x) { return 0.5 - x + 0.25 * x * x * x; });
 }
 
 // One iteration on a problem linear in its constants: the starting residual pass, one Jacobian

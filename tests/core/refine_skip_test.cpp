@@ -5,25 +5,14 @@
 
 #include <vector>
 
-#include "lgp/core/rng.hpp"
 #include "lgp/search/search.hpp"
+#include "test_tables.hpp"
 
 namespace lgp {
 namespace {
 
 Table lineTable() {
-  Table t;
-  Rng rng(2);
-  t.input_names = {"x"};
-  t.output_names = {"y"};
-  t.inputs.resize(1);
-  t.outputs.resize(1);
-  for (int r = 0; r < 200; ++r) {
-    const double x = rng.uniform(-1, 1);
-    t.inputs[0].push_back(x);
-    t.outputs[0].push_back(0.5 + 2 * x);
-  }
-  return t;
+  return test::sampledTable(200, 2, [](double x) { return 0.5 + 2 * x; });
 }
 
 // c0 + c1 x, at the optimum.
