@@ -199,13 +199,13 @@ def fit(X=None, y=None, *, inputs=None, outputs=None, ops=None, seconds=None, ge
 
 
 def _names(given, default, count, what, taken=()):
+    if isinstance(given, str):
+        given = [given]
     names = list(given) if given is not None else default
     if names is None:
         # x0, x1, ...; y (or y0, y1, ...), and f where an input is already called y.
         stem = what if what == "x" or "y" not in taken else "f"
         names = [f"{stem}{i}" for i in range(count)] if count > 1 or what == "x" else [stem]
-    if isinstance(given, str):
-        names = [given]
     if len(names) != count:
         raise ValueError(f"{'inputs' if what == 'x' else 'outputs'}: {len(names)} names for "
                          f"{count} columns")
