@@ -963,6 +963,9 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
     addMeasuredCost(cfg, front);
     return front;
   };
+  // The first write to the store that failed (a full disk): the ranks are stopped as for a
+  // cancel and the run fails with this reason, as an in-process run does.
+  std::string store_failure;
   auto pollStatus = [&] {
     auto v = FileVersion::of(work.status());
     if (!v.exists || v == seen_status) return;
@@ -970,8 +973,10 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
     auto st = readJsonFile(work.status());
     if (!st) return;
     applyStatus(*st, counters);
-    if (auto s = store_.updateProgress(id, counters); !s)
+    if (auto s = store_.updateProgress(id, counters); !s) {
       spdlog::error("run {}: progress: {}", id, s.message());
+      if (store_failure.empty()) store_failure = "cannot store the run's progress: " + s.message();
+    }
   };
   auto pollCheckpoint = [&] {
     auto v = FileVersion::of(work.checkpoint());
@@ -985,10 +990,13 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
     c.elapsed_s = state->value("elapsed_s", c.elapsed_s);
     auto front = frontOf(*state);
     if (front) applyFront(*front, c);
-    if (auto s = store_.writeCheckpoint(id, *state, front ? &*front : nullptr, c); !s)
+    if (auto s = store_.writeCheckpoint(id, *state, front ? &*front : nullptr, c); !s) {
       spdlog::error("run {}: checkpoint: {}", id, s.message());
-    else
+      if (store_failure.empty())
+        store_failure = "cannot store the run's checkpoint: " + s.message();
+    } else {
       counters.best = c.best;
+    }
   };
 
   // Wait for the child; a stop request is SIGUSR1 (mpirun forwards it to every rank, which
@@ -1006,7 +1014,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
       wait_status = *st;
       break;
     }
-    if (job.cancel.load() || job.deleted.load() || job.shutdown.load()) {
+    if (job.cancel.load() || job.deleted.load() || job.shutdown.load() || !store_failure.empty()) {
       const auto now = clock::now();
       if (!stop_at) stop_at = now;
       if (stage == 0) {
@@ -1040,6 +1048,9 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
     fs::remove_all(work.dir, ec);
     return Status::ok();
   }
+  if (!store_failure.empty() && !job.cancel.load() && !job.shutdown.load())
+    return Status::error(store_failure + " (the launch was stopped; its work dir " +
+                         work.dir.string() + " is kept)");
   const bool exited = WIFEXITED(wait_status);
   const int code = exited ? WEXITSTATUS(wait_status) : -1;
   // lgpd may be stopping by a signal that also reached the child first (a service manager
