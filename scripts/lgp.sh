@@ -24,8 +24,9 @@ RUN_PACKAGES=(
   build-essential cmake ninja-build
   libeigen3-dev nlohmann-json3-dev libspdlog-dev libcxxopts-dev
 )
-# lgpd (without them CMake skips the daemon): SQLite, cpp-httplib and pkg-config to find it.
-DAEMON_PACKAGES=(pkg-config libcpp-httplib-dev libsqlite3-dev)
+# lgpd (without them CMake skips the daemon): SQLite, libmicrohttpd (its server), cpp-httplib
+# (the HTTP client of `lgp` and the tests) and pkg-config to find them.
+DAEMON_PACKAGES=(pkg-config libcpp-httplib-dev libmicrohttpd-dev libsqlite3-dev)
 # The Python module (frontends/python) and what its tests use (scikit-learn's estimator
 # checks, SymPy for Member.sympy).
 PYTHON_PACKAGES=(python3-dev pybind11-dev python3-numpy)

@@ -36,13 +36,13 @@ constexpr auto kTableWait = std::chrono::milliseconds(2000);
 constexpr auto kReferencesWait = std::chrono::milliseconds(1000);
 constexpr int kRetryAfterS = 2;
 
-void sendJson(httplib::Response& res, int status, const json& body) {
+void sendJson(HttpResponse& res, int status, const json& body) {
   res.status = status;
   // Non-finite doubles print as null; invalid UTF-8 from a table name is replaced.
-  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
+  res.setContent(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
 }
 
-void sendError(httplib::Response& res, int status, const std::string& msg,
+void sendError(HttpResponse& res, int status, const std::string& msg,
                const std::string& field = "") {
   json body = {{"error", msg}, {"status", status}};
   if (!field.empty()) body["field"] = field;
@@ -51,9 +51,8 @@ void sendError(httplib::Response& res, int status, const std::string& msg,
 
 // An error answer after which the connection is closed: the request's body (or what the
 // client sends next) is not read.
-void sendErrorAndClose(httplib::Response& res, int status, const std::string& msg) {
-  closeConnectionAfterResponse();
-  res.set_header("Connection", "close");
+void sendErrorAndClose(HttpResponse& res, int status, const std::string& msg) {
+  res.close = true;
   sendError(res, status, msg);
 }
 
@@ -168,10 +167,10 @@ class Api {
  public:
   Api(Store& store, JobManager& jobs) : store_(store), jobs_(jobs) {}
 
-  void install(httplib::Server& svr) {
+  // What the server calls (http_server.hpp).
+  HttpHandlers handlers() {
     const auto& cfg = jobs_.daemonConfig();
     max_body_ = cfg.max_body_bytes;
-    svr.set_payload_max_length(cfg.max_body_bytes);
     token_ = cfg.token;
     allowed_hosts_ = {"localhost", "127.0.0.1", "[::1]"};
     if (auto addr = parseListen(cfg.listen); addr && addr->host != "0.0.0.0" && addr->host != "::")
@@ -180,90 +179,59 @@ class Api {
     allowed_hosts_.insert(allowed_hosts_.end(), cfg.allowed_hosts.begin(), cfg.allowed_hosts.end());
     allowed_origins_ = cfg.allowed_origins;
 
-    // Runs after the request line and headers are read and before any of the body is.
-    svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-      if (checkFraming(req, res)) return httplib::Server::HandlerResponse::Handled;
-      if (checkSite(req, res)) return httplib::Server::HandlerResponse::Handled;
-      if (token_.empty() || req.path.rfind("/api/", 0) != 0 || req.path == "/api/v1/health")
-        return httplib::Server::HandlerResponse::Unhandled;
-      if (constantTimeEqual(bearerCredentials(req.get_header_value("Authorization")), token_))
-        return httplib::Server::HandlerResponse::Unhandled;
-      res.set_header("WWW-Authenticate", "Bearer");
-      if (hasBody(req))
-        sendErrorAndClose(res, 401, "missing or wrong bearer token");
-      else
-        sendError(res, 401, "missing or wrong bearer token");
-      return httplib::Server::HandlerResponse::Handled;
-    });
-    svr.set_error_handler([](const httplib::Request&, httplib::Response& res) {
-      if (!res.body.empty()) return;
-      std::string msg = res.status == 413   ? "request body too large"
-                        : res.status == 414 ? "request target too long"
-                        : res.status == 404 ? "no such route"
-                        : res.status == 400 ? "bad request"
-                                            : "HTTP error " + std::to_string(res.status);
-      sendError(res, res.status, msg);
-    });
-    svr.set_exception_handler(
-        [](const httplib::Request& req, httplib::Response& res, std::exception_ptr ep) {
-          std::string what = "unknown";
-          try {
-            if (ep) std::rethrow_exception(ep);
-          } catch (const std::exception& e) {
-            what = e.what();
-          } catch (...) {
-          }
-          spdlog::error("{} {}: {}", req.method, req.path, what);
-          sendError(res, 500, "internal error");
-        });
-    svr.set_default_headers({{"X-Content-Type-Options", "nosniff"},
-                             {"Cache-Control", "no-store"},
-                             {"Referrer-Policy", "no-referrer"}});
-
-    auto page = [](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Content-Security-Policy",
-                     "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
-                     "img-src 'self' data:; connect-src 'self'");
-      res.set_content(web::kIndexHtml, "text/html; charset=utf-8");
-    };
-    svr.Get("/", page);
-    svr.Get("/index.html", page);
-
-    svr.Get(R"(/api/v1(/.*)?)",
-            [this](const httplib::Request& req, httplib::Response& res) { route(req, res, ""); });
-    // Every POST and DELETE, on any path, reads its body here (cpp-httplib 0.11 would read a
-    // chunked body in full, whatever its size, before a plain handler or a 404).
-    svr.Post(".*", [this](const httplib::Request& req, httplib::Response& res,
-                          const httplib::ContentReader& reader) {
-      if (req.is_multipart_form_data())
-        return sendErrorAndClose(res, 415, "multipart bodies are not accepted");
-      // Every POST, with a body or not, names a JSON type: a page on another site can send a
-      // POST without a preflight only as text/plain, a form or multipart, never JSON.
-      if (!isJsonMediaType(mediaType(req.get_header_value("Content-Type"))))
-        return sendErrorAndClose(
-            res, 415,
-            req.has_header("Content-Type")
-                ? "Content-Type must be application/json (got '" +
-                      req.get_header_value("Content-Type").substr(0, 100) + "')"
-                : "Content-Type: application/json is required on every POST, also one "
-                  "without a body");
-      std::string body;
-      if (!readBody(req, reader, res, body)) return;
-      if (!isApi(req.path)) return sendError(res, 404, "no such route");
-      route(req, res, body);
-    });
-    svr.Delete(".*", [this](const httplib::Request& req, httplib::Response& res,
-                            const httplib::ContentReader&) {
-      if (hasBody(req)) closeConnectionAfterResponse();  // the body is not read
-      if (!isApi(req.path)) return sendError(res, 404, "no such route");
-      route(req, res, "");
-    });
-    svr.set_logger([](const httplib::Request& req, const httplib::Response& res) {
-      spdlog::debug("{} {} {} -> {}", req.remote_addr, req.method, req.path, res.status);
-    });
+    HttpHandlers h;
+    h.head = [this](const HttpRequest& req, HttpResponse& res) { head(req, res); };
+    h.route = [this](const HttpRequest& req, HttpResponse& res) { dispatch(req, res); };
+    h.default_headers = {{"X-Content-Type-Options", "nosniff"},
+                         {"Cache-Control", "no-store"},
+                         {"Referrer-Policy", "no-referrer"}};
+    return h;
   }
 
  private:
+  // After the request line and headers, before any of the body is read: the framing, the
+  // site, the token, and a POST's content type (none of them needs the body).
+  void head(const HttpRequest& req, HttpResponse& res) {
+    if (checkFraming(req, res) || checkSite(req, res)) return;
+    if (!token_.empty() && req.path.rfind("/api/", 0) == 0 && req.path != "/api/v1/health" &&
+        !constantTimeEqual(bearerCredentials(req.header("Authorization")), token_)) {
+      res.setHeader("WWW-Authenticate", "Bearer");
+      if (req.announcesBody())
+        sendErrorAndClose(res, 401, "missing or wrong bearer token");
+      else
+        sendError(res, 401, "missing or wrong bearer token");
+      return;
+    }
+    if (req.method != "POST") return;
+    const std::string type = req.header("Content-Type");
+    if (mediaType(type) == "multipart/form-data")
+      return sendErrorAndClose(res, 415, "multipart bodies are not accepted");
+    // Every POST, with a body or not, names a JSON type: a page on another site can send a
+    // POST without a preflight only as text/plain, a form or multipart, never JSON.
+    if (!isJsonMediaType(mediaType(type)))
+      return sendErrorAndClose(
+          res, 415,
+          req.hasHeader("Content-Type")
+              ? "Content-Type must be application/json (got '" + type.substr(0, 100) + "')"
+              : "Content-Type: application/json is required on every POST, also one without a "
+                "body");
+  }
+
+  // The whole request (its body read, at most max_body_bytes).
+  void dispatch(const HttpRequest& req, HttpResponse& res) {
+    const bool get = req.method == "GET" || req.method == "HEAD";
+    if (get && (req.path == "/" || req.path == "/index.html")) {
+      res.setHeader("Content-Security-Policy",
+                    "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
+                    "img-src 'self' data:; connect-src 'self'");
+      res.status = 200;
+      res.setContent(web::kIndexHtml, "text/html; charset=utf-8");
+      return;
+    }
+    if (!isApi(req.path)) return sendError(res, 404, "no such route");
+    route(req, res, req.body);
+  }
+
   static bool isApi(const std::string& path) {
     return path == "/api/v1" || path.rfind("/api/v1/", 0) == 0;
   }
@@ -275,22 +243,17 @@ class Api {
     return rest;
   }
 
-  static bool hasBody(const httplib::Request& req) {
-    return req.has_header("Transfer-Encoding") ||
-           (req.has_header("Content-Length") && req.get_header_value("Content-Length") != "0");
-  }
-
   // Who the request is from, checked before the token: the Host must name this daemon (a
   // DNS-rebinding page sends its own name), and a POST or DELETE that carries an Origin must
   // come from the daemon's own origin or one in allowed_origins. True when answered (403).
-  bool checkSite(const httplib::Request& req, httplib::Response& res) {
-    const size_t hosts = req.get_header_value_count("Host");
+  bool checkSite(const HttpRequest& req, HttpResponse& res) {
+    const size_t hosts = req.headerCount("Host");
     if (hosts != 1) {
       sendErrorAndClose(res, 400,
                         hosts == 0 ? "a Host header is required" : "more than one Host header");
       return true;
     }
-    const std::string host_value = req.get_header_value("Host");
+    const std::string host_value = req.header("Host");
     const auto host = parseHostHeader(host_value);
     const bool any =
         std::find(allowed_hosts_.begin(), allowed_hosts_.end(), "*") != allowed_hosts_.end();
@@ -303,9 +266,9 @@ class Api {
       return true;
     }
     if (req.method != "POST" && req.method != "DELETE") return false;
-    const size_t origins = req.get_header_value_count("Origin");
+    const size_t origins = req.headerCount("Origin");
     if (origins == 0) return false;
-    const std::string origin_value = origins == 1 ? req.get_header_value("Origin") : "";
+    const std::string origin_value = origins == 1 ? req.header("Origin") : "";
     const auto origin = parseOrigin(origin_value);
     const auto defaultPort = [](const std::string& scheme, int port) {
       return port >= 0 ? port : scheme == "https" ? 443 : 80;
@@ -327,21 +290,21 @@ class Api {
 
   // How the body is framed, checked before any of it is read. True when the request has
   // been answered (and the connection is to be closed).
-  bool checkFraming(const httplib::Request& req, httplib::Response& res) {
+  bool checkFraming(const HttpRequest& req, HttpResponse& res) {
     const std::string& m = req.method;
     if (m != "GET" && m != "HEAD" && m != "POST" && m != "DELETE") {
       sendErrorAndClose(res, 405, "method " + m + " is not allowed (GET, HEAD, POST, DELETE)");
       return true;
     }
-    const size_t lengths = req.get_header_value_count("Content-Length");
-    const bool chunked = req.has_header("Transfer-Encoding");
+    const size_t lengths = req.headerCount("Content-Length");
+    const bool chunked = req.hasHeader("Transfer-Encoding");
     if (lengths > 1) {
       sendErrorAndClose(res, 400, "more than one Content-Length header");
       return true;
     }
     uint64_t length = 0;
     if (lengths == 1) {
-      const std::string v = trim(req.get_header_value("Content-Length"));
+      const std::string v = trim(req.header("Content-Length"));
       auto [ptr, ec] = std::from_chars(v.data(), v.data() + v.size(), length);
       if (v.empty() || v.size() > 19 || v.find_first_not_of("0123456789") != std::string::npos ||
           ec != std::errc() || ptr != v.data() + v.size()) {
@@ -356,12 +319,11 @@ class Api {
         sendErrorAndClose(res, 400, "both Content-Length and Transfer-Encoding are given");
         return true;
       }
-      if (req.get_header_value_count("Transfer-Encoding") != 1 ||
-          lower(trim(req.get_header_value("Transfer-Encoding"))) != "chunked") {
+      if (req.headerCount("Transfer-Encoding") != 1 ||
+          lower(trim(req.header("Transfer-Encoding"))) != "chunked") {
         sendErrorAndClose(res, 501,
                           "unsupported Transfer-Encoding '" +
-                              req.get_header_value("Transfer-Encoding").substr(0, 40) +
-                              "' (only chunked)");
+                              req.header("Transfer-Encoding").substr(0, 40) + "' (only chunked)");
         return true;
       }
     }
@@ -383,37 +345,11 @@ class Api {
     return false;
   }
 
-  // The body, at most max_body_bytes also when chunked. False when the request has been
-  // answered.
-  bool readBody(const httplib::Request&, const httplib::ContentReader& reader,
-                httplib::Response& res, std::string& body) {
-    bool too_large = false;
-    const bool ok = reader([&](const char* data, size_t n) {
-      if (body.size() + n > max_body_) {
-        too_large = true;
-        return false;
-      }
-      body.append(data, n);
-      return true;
-    });
-    if (too_large) {
-      sendErrorAndClose(
-          res, 413, "request body larger than max_body_bytes (" + std::to_string(max_body_) + ")");
-      return false;
-    }
-    if (!ok) {
-      sendErrorAndClose(res, 400,
-                        "the request body could not be read (cut short, too slow or a malformed "
-                        "chunk)");
-      return false;
-    }
-    return true;
-  }
-
   // /api/v1/<segments...>, dispatched by hand so that every malformed id is a clean 400.
-  void route(const httplib::Request& req, httplib::Response& res, const std::string& body) {
+  void route(const HttpRequest& req, HttpResponse& res, const std::string& body) {
     auto seg = splitPath(apiRest(req.path));
-    const std::string& m = req.method;
+    // HEAD is answered as GET (the server leaves the body out).
+    const std::string m = req.method == "HEAD" ? "GET" : req.method;
 
     if (seg.size() == 1 && seg[0] == "health") {
       if (m != "GET") return methodNotAllowed(res);
@@ -453,12 +389,12 @@ class Api {
     return sendError(res, 404, "no such route");
   }
 
-  void methodNotAllowed(httplib::Response& res) {
+  void methodNotAllowed(HttpResponse& res) {
     sendError(res, 405, "method not allowed on this route");
   }
 
   // Loads a run or answers 404/500; nullopt means the response is already set.
-  std::optional<RunRecord> loadRun(const std::string& id, httplib::Response& res) {
+  std::optional<RunRecord> loadRun(const std::string& id, HttpResponse& res) {
     auto r = store_.getRun(id);
     if (!r) {
       spdlog::error("{}", r.error());
@@ -472,7 +408,7 @@ class Api {
     return std::move(**r);
   }
 
-  std::optional<StoredFront> loadFront(const std::string& id, httplib::Response& res) {
+  std::optional<StoredFront> loadFront(const std::string& id, HttpResponse& res) {
     auto f = store_.loadFront(id);
     if (!f) {
       spdlog::error("{}", f.error());
@@ -486,7 +422,7 @@ class Api {
     return std::move(**f);
   }
 
-  void listRuns(httplib::Response& res) {
+  void listRuns(HttpResponse& res) {
     auto runs = store_.listRuns();
     if (!runs) return sendError(res, 500, "store error: " + runs.error());
     json list = json::array();
@@ -494,7 +430,7 @@ class Api {
     sendJson(res, 200, {{"runs", list}});
   }
 
-  void submit(const std::string& text, httplib::Response& res) {
+  void submit(const std::string& text, HttpResponse& res) {
     lgp::JsonLimits limits;
     limits.max_bytes = max_body_;
     auto body = lgp::parseJson(text, limits);
@@ -510,15 +446,15 @@ class Api {
     bool queue_full = false;
     auto id = jobs_.submit(std::move(*prepared), &queue_full);
     if (queue_full) {
-      res.set_header("Retry-After", std::to_string(kQueueRetryAfterS));
+      res.setHeader("Retry-After", std::to_string(kQueueRetryAfterS));
       return sendError(res, 429, id.error());
     }
     if (!id) return sendError(res, 500, "store error: " + id.error());
-    res.set_header("Location", "/api/v1/runs/" + *id);
+    res.setHeader("Location", "/api/v1/runs/" + *id);
     sendJson(res, 201, {{"id", *id}, {"status", "queued"}, {"url", "/api/v1/runs/" + *id}});
   }
 
-  void getRun(const std::string& id, httplib::Response& res) {
+  void getRun(const std::string& id, HttpResponse& res) {
     auto r = loadRun(id, res);
     if (!r) return;
     json j = runSummary(*r, jobs_.isActive(id));
@@ -527,7 +463,7 @@ class Api {
     sendJson(res, 200, j);
   }
 
-  void history(const std::string& id, httplib::Response& res) {
+  void history(const std::string& id, HttpResponse& res) {
     if (!loadRun(id, res)) return;
     auto h = store_.history(id, kMaxHistoryRows);
     if (!h) return sendError(res, 500, "store error: " + h.error());
@@ -543,14 +479,14 @@ class Api {
     sendJson(res, 200, {{"id", id}, {"history", rows}});
   }
 
-  void deleteRun(const std::string& id, httplib::Response& res) {
+  void deleteRun(const std::string& id, HttpResponse& res) {
     auto r = jobs_.remove(id);
     if (!r) return sendError(res, 500, "store error: " + r.error());
     if (!*r) return sendError(res, 404, "no run " + id);
     sendJson(res, 200, {{"id", id}, {"deleted", true}});
   }
 
-  void cancelRun(const std::string& id, httplib::Response& res) {
+  void cancelRun(const std::string& id, HttpResponse& res) {
     auto r = loadRun(id, res);
     if (!r) return;
     if (r->status != RunStatus::Queued && r->status != RunStatus::Running)
@@ -565,7 +501,7 @@ class Api {
     sendJson(res, 200, {{"id", id}, {"status", status}});
   }
 
-  void front(const std::string& id, httplib::Response& res) {
+  void front(const std::string& id, HttpResponse& res) {
     auto run = loadRun(id, res);
     if (!run) return;
     auto f = loadFront(id, res);
@@ -599,7 +535,7 @@ class Api {
 
   // The member object of the front, or a 404.
   std::optional<json> memberOf(const json& front, size_t k, const std::string& id,
-                               httplib::Response& res) {
+                               HttpResponse& res) {
     const auto& members = front.value("members", json::array());
     if (!members.is_array() || k >= members.size()) {
       sendError(res, 404,
@@ -610,7 +546,7 @@ class Api {
     return members[k];
   }
 
-  void member(const std::string& id, size_t k, httplib::Response& res) {
+  void member(const std::string& id, size_t k, HttpResponse& res) {
     if (!loadRun(id, res)) return;
     auto f = loadFront(id, res);
     if (!f) return;
@@ -619,8 +555,8 @@ class Api {
     sendJson(res, 200, *m);
   }
 
-  void code(const std::string& id, size_t k, const httplib::Request& req, httplib::Response& res) {
-    std::string lang = req.has_param("lang") ? req.get_param_value("lang") : "hlsl";
+  void code(const std::string& id, size_t k, const HttpRequest& req, HttpResponse& res) {
+    std::string lang = req.hasParam("lang") ? req.param("lang") : "hlsl";
     if (lang != "hlsl" && lang != "glsl" && lang != "cpp")
       return sendError(res, 400, "lang must be one of hlsl, glsl, cpp", "lang");
     if (!loadRun(id, res)) return;
@@ -636,22 +572,21 @@ class Api {
     if (!text)
       return sendError(res, 422, "cannot emit member " + std::to_string(k) + ": " + text.error());
     res.status = 200;
-    res.set_content(*text, "text/plain; charset=utf-8");
+    res.setContent(*text, "text/plain; charset=utf-8");
 #else
     sendError(res, 503, "code export is not available: this lgpd was built without lgp::emit");
 #endif
   }
 
-  void residuals(const std::string& id, size_t k, const httplib::Request& req,
-                 httplib::Response& res) {
+  void residuals(const std::string& id, size_t k, const HttpRequest& req, HttpResponse& res) {
     auto run = loadRun(id, res);
     if (!run) return;
     auto f = loadFront(id, res);
     if (!f) return;
     if (!memberOf(f->front, k, id, res)) return;
     size_t max_rows = kDefaultResidualRows;
-    if (req.has_param("max_rows")) {
-      auto v = parseIndex(req.get_param_value("max_rows"));
+    if (req.hasParam("max_rows")) {
+      auto v = parseIndex(req.param("max_rows"));
       if (!v || *v == 0)
         return sendError(res, 400, "max_rows must be a positive integer", "max_rows");
       max_rows = *v;
@@ -662,7 +597,7 @@ class Api {
     // it, and a client that asked too early is told to come back.
     auto loaded = jobs_.tableFor(*run, kTableWait);
     if (!loaded) {
-      res.set_header("Retry-After", std::to_string(kRetryAfterS));
+      res.setHeader("Retry-After", std::to_string(kRetryAfterS));
       json body = {{"error", "the run's table is being loaded; retry in a moment"},
                    {"status", 503},
                    {"retry_after_s", kRetryAfterS}};
@@ -732,11 +667,15 @@ class Api {
 
 }  // namespace
 
-void installApi(httplib::Server& server, Store& store, JobManager& jobs) {
-  // The Api object lives as long as the process (handlers capture it).
-  static std::vector<std::unique_ptr<Api>> apis;
-  apis.push_back(std::make_unique<Api>(store, jobs));
-  apis.back()->install(server);
+HttpHandlers makeApi(Store& store, JobManager& jobs) {
+  // The handlers share the Api object and keep it alive.
+  auto api = std::make_shared<Api>(store, jobs);
+  HttpHandlers h = api->handlers();
+  h.head = [api, f = std::move(h.head)](const HttpRequest& req, HttpResponse& res) { f(req, res); };
+  h.route = [api, f = std::move(h.route)](const HttpRequest& req, HttpResponse& res) {
+    f(req, res);
+  };
+  return h;
 }
 
 }  // namespace lgpd

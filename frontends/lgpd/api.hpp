@@ -3,13 +3,12 @@
 // Safety rules the routes keep:
 //  1. Run ids must be 16 lowercase hex digits (isValidRunId) before they touch the store;
 //     anything else is a 400, so "../" or SQL never reaches a path or a statement.
-//  2. The framing of a body is checked before any of it is read (Content-Length a number,
-//     not both framings, a length or a chunked body on a POST); bodies above max_body_bytes
-//     get 413, chunked ones too (every POST and DELETE reads its body through a content
-//     reader, cpp-httplib's own reading would take a chunked body in full); JSON goes
-//     through lgp::parseJson (depth 64, numbers, duplicate keys); malformed JSON and bad
-//     config fields get 400 naming the JSON path; unknown runs or members get 404. Status
-//     codes per route: README.md.
+//  2. The framing of a body, the site, the token and a POST's content type are checked
+//     before any of the body is read (Content-Length a number, not both framings, a length
+//     or a chunked body on a POST); bodies above max_body_bytes get 413 from the server,
+//     chunked ones too; JSON goes through lgp::parseJson (depth 64, numbers, duplicate keys);
+//     malformed JSON and bad config fields get 400 naming the JSON path; unknown runs or members
+//     get 404. Status codes per route: README.md.
 //  3. With a token configured, every /api/ route but /api/v1/health needs
 //     "Authorization: Bearer <token>" (constant-time compare); the page itself is static
 //     and asks for the token.
@@ -20,14 +19,13 @@
 //     HttpServer (http_server.hpp).
 #pragma once
 
-#include <httplib.h>
-
+#include "http_server.hpp"
 #include "jobs.hpp"
 #include "store.hpp"
 
 namespace lgpd {
 
-// Registers every route, the error handlers and the limits on `server`.
-void installApi(httplib::Server& server, Store& store, JobManager& jobs);
+// The checks before the body and the routes, for HttpServer.
+HttpHandlers makeApi(Store& store, JobManager& jobs);
 
 }  // namespace lgpd

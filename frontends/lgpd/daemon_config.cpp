@@ -38,10 +38,12 @@ Status DaemonConfig::validate() const {
   if (mpi.max_np < 1 || mpi.max_np > 4096)
     return Status::error("/mpi/max_np: must be in [1, 4096]");
   if (!(mpi.stop_grace_s > 0)) return Status::error("/mpi/stop_grace_s: must be a number > 0");
+  if (max_connections < 16 || max_connections > 1000000)
+    return Status::error("/max_connections: must be in [16, 1000000]");
   if (max_connections_per_client != 0 &&
-      (max_connections_per_client < 1 || max_connections_per_client >= http_threads))
-    return Status::error("/max_connections_per_client: must be in [1, http_threads - 1] (" +
-                         std::to_string(http_threads - 1) + "), or 0 for http_threads / 2 (got " +
+      (max_connections_per_client < 1 || max_connections_per_client > max_connections))
+    return Status::error("/max_connections_per_client: must be in [1, max_connections] (" +
+                         std::to_string(max_connections) + "), or 0 for max_connections / 2 (got " +
                          std::to_string(max_connections_per_client) + ")");
   for (auto [key, v, lo, hi] :
        {std::tuple{"read_timeout_s", read_timeout_s, 0.1, 3600.0},
@@ -89,7 +91,7 @@ Status DaemonConfig::validate() const {
 
 int DaemonConfig::connectionsPerClient() const {
   return max_connections_per_client > 0 ? max_connections_per_client
-                                        : std::max(1, http_threads / 2);
+                                        : std::max(1, max_connections / 2);
 }
 
 Status checkToken(const std::string& token) {
@@ -290,6 +292,7 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
               "data_base_dir",
               "allowed_data_dirs",
               "http_threads",
+              "max_connections",
               "max_connections_per_client",
               "read_timeout_s",
               "request_timeout_s",
@@ -379,6 +382,7 @@ Status applyDaemonConfigJson(const nlohmann::json& j, DaemonConfig& cfg) {
       return r;
     });
   };
+  if (!(s = intField("max_connections", 1, cfg.max_connections))) return s;
   if (!(s = intField("max_connections_per_client", 0, cfg.max_connections_per_client))) return s;
   if (!(s = intField("keep_alive_max_requests", 1, cfg.keep_alive_max_requests))) return s;
   for (auto [key, out] : {std::pair<const char*, double*>{"read_timeout_s", &cfg.read_timeout_s},

@@ -40,8 +40,9 @@ struct DaemonConfig {
   std::filesystem::path data_base_dir;    // relative data paths of submissions resolve here;
                                           // empty = lgpd's working directory at start
   std::vector<std::filesystem::path> allowed_data_dirs;  // if set, data files must be inside
-  int http_threads = 16;                                 // HTTP worker threads
-  // Connections one client address (an IPv6 /64) may hold at once; 0 = http_threads / 2.
+  int http_threads = 8;        // threads that run the routes (connections hold none)
+  int max_connections = 1024;  // open connections in all
+  // Connections one client address (an IPv6 /64) may hold at once; 0 = max_connections / 2.
   int max_connections_per_client = 0;
   double read_timeout_s = 5;          // longest pause inside a request
   double request_timeout_s = 60;      // a whole request (line, headers, body) must arrive

@@ -18,7 +18,6 @@
 #include <fstream>
 #include <thread>
 
-#include <httplib.h>
 #include <pthread.h>
 #include <spdlog/spdlog.h>
 #include <cxxopts.hpp>
@@ -120,6 +119,8 @@ int run(int argc, char** argv) {
 
   lgpd::JobManager jobs(**store, cfg);
   lgpd::HttpLimits limits;
+  limits.workers = cfg.http_threads;
+  limits.max_connections = cfg.max_connections;
   limits.max_connections_per_client = cfg.connectionsPerClient();
   limits.read_timeout_s = cfg.read_timeout_s;
   limits.request_timeout_s = cfg.request_timeout_s;
@@ -127,25 +128,21 @@ int run(int argc, char** argv) {
   limits.keep_alive_timeout_s = cfg.keep_alive_timeout_s;
   limits.keep_alive_max_requests = cfg.keep_alive_max_requests;
   limits.max_request_bytes = cfg.max_body_bytes;
-  lgpd::HttpServer server(limits);
-  const int http_threads = cfg.http_threads;
-  server.new_task_queue = [http_threads] { return new httplib::ThreadPool(http_threads); };
-  lgpd::installApi(server, **store, jobs);
-
-  int port = addr->port;
-  if (port == 0) {
-    port = server.bind_to_any_port(addr->host);
-    if (port < 0) port = 0;
-  } else if (!server.bind_to_port(addr->host, port)) {
-    port = 0;
-  }
-  if (port == 0) {
-    std::fprintf(stderr, "error: cannot listen on %s\n", cfg.listen.c_str());
+  lgpd::HttpServer server(limits, lgpd::makeApi(**store, jobs));
+  auto bound = server.bind(addr->host, addr->port);
+  if (!bound) {
+    std::fprintf(stderr, "error: %s\n", bound.error().c_str());
     return 1;
   }
-  server.widenListenBacklog();
+  const int port = *bound;
+  // Jobs start before the server answers, so the first request sees the resumed runs.
   if (auto s = jobs.start(); !s) {
     std::fprintf(stderr, "error: %s\n", s.message().c_str());
+    return 1;
+  }
+  if (auto s = server.serve(); !s) {
+    std::fprintf(stderr, "error: %s\n", s.message().c_str());
+    jobs.shutdown();
     return 1;
   }
   if (args.count("port-file")) {
@@ -159,22 +156,15 @@ int run(int argc, char** argv) {
   }
   spdlog::info(
       "listening on http://{}:{} ({} job slot(s), checkpoint every {} s, {} HTTP workers, at "
-      "most {} connections per client{})",
+      "most {} connections, {} per client{})",
       addr->host.find(':') != std::string::npos ? "[" + addr->host + "]" : addr->host, port,
-      cfg.max_jobs, cfg.checkpoint_interval_s, cfg.http_threads, cfg.connectionsPerClient(),
-      cfg.token.empty() ? "" : ", bearer token required");
+      cfg.max_jobs, cfg.checkpoint_interval_s, cfg.http_threads, cfg.max_connections,
+      cfg.connectionsPerClient(), cfg.token.empty() ? "" : ", bearer token required");
 
-  std::thread signals([&server, sigs] {
-    int sig = 0;
-    sigwait(&sigs, &sig);
-    spdlog::info("signal {}: stopping", sig);
-    server.stop();
-  });
-  server.listen_after_bind();
-  // listen returned: either a signal or a failure. Make sure the signal thread ends too.
-  if (server.is_running()) server.stop();
-  pthread_kill(signals.native_handle(), SIGTERM);
-  signals.join();
+  int sig = 0;
+  sigwait(&sigs, &sig);
+  spdlog::info("signal {}: stopping", sig);
+  server.stop();
   spdlog::info("checkpointing running jobs");
   jobs.shutdown();
   spdlog::info("stopped");
