@@ -9,6 +9,7 @@
 // that crashed or hung lgp and lgpd before are replayed as regression cases with the outcome
 // they must have. Each test prints its counts: inputs tried, crashes, hangs, wrong codes.
 #include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/time.h>
@@ -642,7 +643,9 @@ TEST_F(Fuzz, CliRuns) {
 }
 
 // One raw HTTP exchange: the status of the answer, 0 when the server closed without one.
-int rawRequest(int port, const std::string& bytes, int timeout_s = 10) {
+// `cork`: the bytes and the end of stream leave in one segment (TCP_CORK until the
+// shutdown), as when the server reads a connection only after the client has finished.
+int rawRequest(int port, const std::string& bytes, int timeout_s = 10, bool cork = false) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (fd < 0) return -1;
   timeval tv{timeout_s, 0};
@@ -656,6 +659,8 @@ int rawRequest(int port, const std::string& bytes, int timeout_s = 10) {
     ::close(fd);
     return -1;
   }
+  const int on = 1;
+  if (cork) ::setsockopt(fd, IPPROTO_TCP, TCP_CORK, &on, sizeof on);
   size_t sent = 0;
   while (sent < bytes.size()) {
     const ssize_t k = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
@@ -825,11 +830,27 @@ TEST_F(FuzzDaemon, RawRequests) {
        "POST /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
        "Transfer-Encoding: chunked\r\n\r\n" +
            repeat("4000\r\n" + std::string(0x4000, ' ') + "\r\n", 80) + "0\r\n\r\n"},
+      {"request target over 8 KiB",
+       "GET /api/v1/runs/" + std::string(9000, 'a') + " HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"},
+      {"headers over 80 KiB", "GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Big: " +
+                                  std::string(100000, 'b') + "\r\n\r\n"},
   };
   for (const auto& [what, req] : framing) {
     const int status = rawRequest(daemon_->port(), req, 10);
     EXPECT_GE(status, 400) << what;
     EXPECT_LT(status, 500) << what;
+  }
+  EXPECT_EQ(daemon_->get("/api/v1/runs").status, 200);
+}
+
+TEST_F(FuzzDaemon, CutShortRequestsAreDroppedAtOnce) {
+  // A request cut short by the client's end of stream can never complete: it is dropped at
+  // once, not at the idle timeout (libmicrohttpd alone waited 5 s for each).
+  for (const std::string& cut : {std::string("GET /api/v1/runs HTTP/1.1\r\nHost: 127.0.0.1\r\n"),
+                                 std::string("DELETE /api/v1/r"), std::string("GET ")}) {
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(rawRequest(daemon_->port(), cut, 10, true), 0) << cut;
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(3)) << cut;
   }
   EXPECT_EQ(daemon_->get("/api/v1/runs").status, 200);
 }
