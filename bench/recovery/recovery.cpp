@@ -28,6 +28,7 @@
 #include "../bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/objectives.hpp"
 #include "lgp/search/search.hpp"
 #include "operon.hpp"
 #include "suite.hpp"
@@ -144,7 +145,12 @@ Run runLgp(const Options& o, const Problem& p, uint64_t seed, const lgp::Table& 
     for (const auto& e : front)
       if (std::isfinite(e.obj.error) && (!best || e.obj.error < best->obj.error)) best = &e;
     if (best) {
-      r.test_r2 = r2Of(lgp::evaluateReference(best->program, test)[0], test.outputs[0]);
+      // The program predicts T(y) where the target has a transform: judge it on y.
+      std::vector<double> pred = lgp::evaluateReference(best->program, test)[0];
+      if (auto t = cfg->data.transforms.find(test.output_names.at(0));
+          t != cfg->data.transforms.end())
+        for (double& v : pred) v = lgp::invertTransform(t->second, v);
+      r.test_r2 = r2Of(pred, test.outputs[0]);
       r.train_r2 = best->metrics_ref.empty() ? NAN : best->metrics_ref[0].r2;
       r.model = best->infix.empty() ? "" : best->infix[0];
     }
