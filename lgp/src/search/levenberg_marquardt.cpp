@@ -690,7 +690,10 @@ ConstantFitter::~ConstantFitter() = default;
 ConstantFitter::ConstantFitter(ConstantFitter&&) noexcept = default;
 
 bool ConstantFitter::reweights(const LevenbergMarquardtConfig& c) const {
-  return c.objective == LmObjective::Configured &&
+  // Under linear scaling the Scorer refits each output's scale by least squares, whatever LM
+  // found for it: constants fitted with scales tuned to the error are judged with other scales
+  // (on the DFG table that lost to plain least squares and the Nelder-Mead polish).
+  return c.objective == LmObjective::Configured && !impl_->scaling &&
          !(impl_->cfg.metric == ErrorMetric::Rmse && impl_->channels.size() == 1);
 }
 

@@ -70,10 +70,12 @@ Search::Search(RunConfig cfg, Table table)
     for (TargetTransform t : err_cfg_.transforms) transformed |= t != TargetTransform::None;
     // Plain least squares is the error for rmse on one channel, except that the Scorer refits
     // the scale of a transformed output on the transformed scale, LM on the original one.
-    // Reweighted rounds are judged by the Scorer itself.
+    // Reweighted rounds (lm_metric configured) are judged by the Scorer itself; under linear
+    // scaling LM fits plain least squares (ConstantFitter::reweights).
     const bool plain_is_error = err_cfg_.metric == ErrorMetric::Rmse && channels == 1;
     lm_fits_the_error_ = plain_is_error ? !(err_cfg_.linear_scaling && transformed)
-                                        : cfg_.search.refine.lm_metric == LmObjective::Configured;
+                                        : cfg_.search.refine.lm_metric == LmObjective::Configured &&
+                                              !err_cfg_.linear_scaling;
   }
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing

@@ -16,10 +16,10 @@
 // at the closed-form weighted least-squares fit of T_o(y_o) on f_o (what Scorer does) and
 // discarded afterwards (the Scorer refits them in closed form).
 //
-// Objective. LmObjective::LeastSquares minimises the sum of squared residuals above, whatever
-// ErrorConfig::metric says. LmObjective::Configured (the default) fits the configured error:
-// where that is rmse on one channel it is the same; otherwise the fit runs in rounds of
-// iteratively reweighted least squares, each residual_{c,r} scaled by sqrt(u_{c,r} v_c) from
+// Objective. LmObjective::LeastSquares minimises the sum of squares above, whatever the metric.
+// LmObjective::Configured (the default) fits the configured error: plain least squares for
+// rmse on one channel and under linear scaling (the Scorer fits scales by least squares), else
+// rounds of iteratively reweighted least squares, residual_{c,r} scaled by sqrt(u_{c,r} v_c) from
 // the residuals e at the round's starting point:
 //   mae       u = 1 / max(|e|, eps)                          (IRLS for the L1 norm)
 //   mean_rel  u = 1 / (max(|y|, rel_floor) max(|e|, eps))    (mae of the relative error,
