@@ -157,6 +157,20 @@ TEST(LmMetric, RmseOfOneChannelIsPlainLeastSquares) {
   EXPECT_TRUE(std::isnan(res.error_after));
 }
 
+// Under linear scaling the Scorer fits the scales by least squares: so does LM, whatever the
+// metric (reweighted rounds with scales tuned to max_abs lost there, see docs).
+TEST(LmMetric, LinearScalingStaysLeastSquares) {
+  const Table t = test::sampledTable(100, 26, [](double x) { return std::exp(x); });
+  ErrorConfig ec;
+  ec.metric = ErrorMetric::MaxAbs;
+  ec.linear_scaling = true;
+  const Dataset ds(t, 64);
+  ConstantFitter fitter(ds, ec);
+  EXPECT_FALSE(fitter.reweights({}));
+  ec.linear_scaling = false;
+  EXPECT_TRUE(ConstantFitter(ds, ec).reweights({}));
+}
+
 TEST(LmMetric, ConfigValidatesRounds) {
   LevenbergMarquardtConfig lm;
   lm.max_rounds = 0;
