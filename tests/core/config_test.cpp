@@ -89,6 +89,22 @@ TEST(Config, OutOfRangeNamesItsPath) {
   EXPECT_NE(errorOf(j).find("at least one budget"), std::string::npos);
 }
 
+TEST(Config, LmMetricSwitch) {
+  auto d = parseRunConfig(minimal(), ".");
+  ASSERT_TRUE(d) << d.error();
+  EXPECT_EQ(d->search.refine.lm_metric, LmObjective::Configured);
+  json j = minimal();
+  j["search"] = {{"refine", {{"lm_metric", "least_squares"}}}};
+  auto c = parseRunConfig(j, ".");
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_EQ(c->search.refine.lm_metric, LmObjective::LeastSquares);
+  EXPECT_EQ(toJson(*c)["search"]["refine"]["lm_metric"], "least_squares");
+  j["search"] = {{"refine", {{"lm_metric", "l1"}}}};
+  EXPECT_NE(errorOf(j).find("/search/refine/lm_metric: must be \"configured\" or"),
+            std::string::npos)
+      << errorOf(j);
+}
+
 TEST(Config, DataNeedsExactlyOneSource) {
   EXPECT_NE(errorOf(json{{"data", json::object()}}).find("/data"), std::string::npos);
   EXPECT_NE(errorOf(json::object()).find("/data: required"), std::string::npos);

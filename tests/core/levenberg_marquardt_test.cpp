@@ -112,7 +112,9 @@ TEST(LevenbergMarquardt, ChannelsReachTheOptimumInOneStep) {
   ec.channels = {{"F0=1", {1.0, 1.0}}, {"F0=0.04", {0.04, 1.0}}};
   Dataset ds(t, 128);
   ConstantFitter fitter(ds, ec);
-  const ConstantFitResult res = fitter.fit(p, {});
+  LevenbergMarquardtConfig lm;
+  lm.objective = LmObjective::LeastSquares;  // rmse over two channels is reweighted otherwise
+  const ConstantFitResult res = fitter.fit(p, lm);
   EXPECT_TRUE(res.improved);
   EXPECT_LE(res.iterations, 2);
   expectRelativelyNear(p.constants, {0.8, -0.2, -0.5, 1.2}, 1e-4);
@@ -245,9 +247,10 @@ TEST(LevenbergMarquardt, ProgramWithoutConstantsIsLeftAlone) {
 }
 
 // Random programs over every operator on a two-output table with channels, a transform and
-// weights: sse_before is the Scorer's weighted SSE (so the residuals are the Scorer's), the
-// constants stay finite, change only when the sum went down, and then the Scorer agrees.
-// (Trial steps rarely overflow here; NonFiniteTrialStepsAreRejected forces that path.)
+// weights, fitted by plain least squares: sse_before is the Scorer's weighted SSE (so the residuals
+// are the Scorer's), the constants stay finite, change only when the sum went down, and then the
+// Scorer agrees. (Trial steps rarely overflow here; NonFiniteTrialStepsAreRejected forces that
+// path.)
 TEST(LevenbergMarquardt, RandomProgramsKeepFiniteConstantsAndMatchTheScorer) {
   Table t = inputsTable(300, -3, 3, 2, 12);
   t.input_names = {"x", "z"};
@@ -284,7 +287,7 @@ TEST(LevenbergMarquardt, RandomProgramsKeepFiniteConstantsAndMatchTheScorer) {
       return s * ds.weightSum();
     };
     const double scorer_before = sse(p);
-    const ConstantFitResult res = fitter.fit(p, {10, 1e-10});
+    const ConstantFitResult res = fitter.fit(p, {10, 1e-10, LmObjective::LeastSquares});
     for (float c : p.constants) ASSERT_TRUE(std::isfinite(c)) << "trial " << trial;
     if (res.evaluations > 0 && std::isfinite(scorer_before)) {
       EXPECT_NEAR(res.sse_before, scorer_before, 1e-5 * scorer_before + 1e-9) << trial;

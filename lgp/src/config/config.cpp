@@ -16,6 +16,10 @@ namespace lgp {
 std::string_view toString(RefineMethod m) {
   return m == RefineMethod::DeThenNm ? "de+nm" : "nm";
 }
+
+std::string_view toString(LmObjective o) {
+  return o == LmObjective::LeastSquares ? "least_squares" : "configured";
+}
 std::string_view toString(MultiOutputMode m) {
   return m == MultiOutputMode::TwoStep ? "two_step" : "joint";
 }
@@ -309,6 +313,16 @@ void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
       fail("/search/refine/method", "must be \"nm\" or \"de+nm\" (got " + v.dump() + ")");
   }
   o.integer("de_evaluations", r.de_evaluations, 1, 1 << 30);
+  if (o.has("lm_metric")) {
+    const auto& v = o.at("lm_metric");
+    if (v == "configured")
+      r.lm_metric = LmObjective::Configured;
+    else if (v == "least_squares")
+      r.lm_metric = LmObjective::LeastSquares;
+    else
+      fail("/search/refine/lm_metric",
+           "must be \"configured\" or \"least_squares\" (got " + v.dump() + ")");
+  }
   o.finish();
 }
 
@@ -708,7 +722,8 @@ nlohmann::json toJson(const RunConfig& c) {
               {"initial_step", s.refine.nm.initial_step},
               {"tolerance", s.refine.nm.tolerance},
               {"method", std::string(toString(s.refine.method))},
-              {"de_evaluations", s.refine.de_evaluations}}},
+              {"de_evaluations", s.refine.de_evaluations},
+              {"lm_metric", std::string(toString(s.refine.lm_metric))}}},
             {"archive",
              {{"max_size", s.archive.max_size},
               {"eps_log10_error", s.archive.eps_log10_error},

@@ -5,6 +5,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <type_traits>
 #include <unsupported/Eigen/LevenbergMarquardt>
 #include <utility>
@@ -18,6 +20,7 @@ namespace lgp {
 Status LevenbergMarquardtConfig::validate() const {
   if (max_iterations < 1) return Status::error("max_iterations: must be >= 1");
   if (!(tolerance >= 0)) return Status::error("tolerance: must be >= 0");
+  if (max_rounds < 1) return Status::error("max_rounds: must be >= 1");
   return Status::ok();
 }
 
@@ -37,6 +40,20 @@ constexpr double kNoiseFloor = 1e-12;
 constexpr double kRankTolerance = 1e-13;
 // Residual passes allowed per iteration on average (rejected trial steps cost one each).
 constexpr int kEvaluationsPerIteration = 4;
+// Solver iterations per reweighted round at most: the weights are only as good as the point
+// they were taken at, so a round solves its least-squares problem roughly and hands over.
+constexpr int kRoundIterations = 3;
+// IRLS for the L1 norm: residuals below this fraction of the channel's mean error weigh as
+// much as one at it (the weight 1/|e| is capped, the usual regularisation).
+constexpr double kL1Eps = 1e-3;
+// Lawson weights never drop below this fraction of the largest, so a row that leaves the
+// extremal set can come back (the program is nonlinear in its constants).
+constexpr double kLawsonFloor = 1e-6;
+// Under OutputCombine::Mean a channel's factor 1/error_c is capped at 1/(this * the worst
+// error): a channel at error 0 is at a kink of rmse, not at an infinite gradient.
+constexpr double kChannelCap = 1e-3;
+// A reweighted round's step is halved at most this many times until the Scorer takes it.
+constexpr int kHalvings = 2;
 
 // a * b + c, fused where the ISA has it (one rounding, twice the throughput).
 inline double fmadd(double a, double b, double c) {
@@ -109,7 +126,7 @@ struct ConstantFitter::Impl {
     }
   };
 
-  Impl(const Dataset& d, const ErrorConfig& c) : ds(d), functor{this}, lm(functor) {
+  Impl(const Dataset& d, const ErrorConfig& c) : ds(d), cfg(c), functor{this}, lm(functor) {
     const int k = ds.numOutputs();
     transforms = c.transforms;
     transforms.resize(k, TargetTransform::None);
@@ -129,15 +146,20 @@ struct ConstantFitter::Impl {
     sqrt_w.resize(rows);
     for (size_t r = 0; r < rows; ++r) sqrt_w[r] = std::sqrt(ds.weight()[r]);
     swy.assign(channels.size() * rows, 0.0);
+    chan_y.assign(channels.size() * rows, 0.0);
     double sy2 = 0;
     for (size_t ch = 0; ch < channels.size(); ++ch)
       for (size_t r = 0; r < rows; ++r) {
         double y = 0;
         for (const auto& [o, w] : channels[ch]) y += w * ds.target(o)[r];
+        chan_y[ch * rows + r] = y;
         swy[ch * rows + r] = sqrt_w[r] * y;
         sy2 += swy[ch * rows + r] * swy[ch * rows + r];
       }
-    noise_floor = kNoiseFloor * sy2;
+    plain_noise_floor = kNoiseFloor * sy2;
+    noise_floor = plain_noise_floor;
+    scale.assign(channels.size() * rows, 1.0);
+    plain.assign(channels.size() * rows, 0.0);
     if (scaling) {
       raw.resize(static_cast<size_t>(k) * ds.paddedRows());
       fit_target.resize(static_cast<size_t>(k) * ds.paddedRows());
@@ -208,6 +230,15 @@ struct ConstantFitter::Impl {
     const Eigen::Index nv = x.size();
     const size_t n = rows;
     const size_t nc = channels.size();
+    // A residual pass at the point whose plain residuals are at hand (a round's first pass,
+    // after reweighting there) costs no evaluation.
+    if (!jacobian && plain_valid && plain_x.size() == nv && plain_x == x) {
+      raw_valid = false;
+      double sse = 0;
+      for (size_t i = 0; i < nc * n; ++i) sse += (plain[i] * scale[i]) * (plain[i] * scale[i]);
+      return std::isfinite(sse) ? std::sqrt(sse) : kHugeResidual;
+    }
+    plain_valid = false;
     bool ok = true;
     for (int p = 0; p < np; ++p) ok = ok && std::isfinite(static_cast<float>(x[p]));
     for (Eigen::Index v = np; v < nv; ++v) ok = ok && std::isfinite(x[v]);
@@ -258,6 +289,8 @@ struct ConstantFitter::Impl {
       for (size_t c = 0; c < nc; ++c) {
         double* out = jacobian ? block_a.data() + nv * na + c * nr : res_block.data() + c * bs;
         const double* t = swy.data() + c * n + r0;
+        const double* sc = scale.data() + c * n + r0;
+        double* __restrict pl = plain.data() + c * n + r0;
         const auto& terms = channels[c];
         if (terms.size() == 1 && alone[terms[0].first]) {  // the common case: one loop
           const int o = terms[0].first;
@@ -271,7 +304,8 @@ struct ConstantFitter::Impl {
             for (int i = 0; i < nr; ++i) {
               double go, dg;
               inverse<decltype(tt)::value>(a * static_cast<double>(fo[i]) + b, go, dg);
-              out[i] = sw[i] * (w * go) - t[i];
+              pl[i] = sw[i] * (w * go) - t[i];
+              out[i] = pl[i] * sc[i];
               acc += out[i] * out[i];
               if constexpr (decltype(tt)::value != TargetTransform::None) qo[i] = sw[i] * dg;
             }
@@ -287,7 +321,8 @@ struct ConstantFitter::Impl {
         }
 #pragma omp simd reduction(+ : sse)
         for (int i = 0; i < nr; ++i) {
-          out[i] = sw[i] * out[i] - t[i];
+          pl[i] = sw[i] * out[i] - t[i];
+          out[i] = pl[i] * sc[i];
           sse += out[i] * out[i];
         }
       }
@@ -330,6 +365,14 @@ struct ConstantFitter::Impl {
             first = false;
           }
         }
+        if (weighted) {  // the residual column is scaled already
+          const double* sc = scale.data() + c * n + r0;
+          for (size_t j = 0; j + 1 < act.size(); ++j) {
+            double* out = block_a.data() + static_cast<size_t>(act[j]) * na + c * nr;
+#pragma omp simd
+            for (int i = 0; i < nr; ++i) out[i] *= sc[i];
+          }
+        }
         accumulateGram(act, block_a.data() + c * nr, na, nr);
       }
     }
@@ -337,7 +380,168 @@ struct ConstantFitter::Impl {
       ++non_finite;
       return kHugeResidual;
     }
+    plain_x = x;
+    plain_valid = true;
     return std::sqrt(sse);
+  }
+
+  // Plain least squares: every residual at scale 1.
+  void unweight() {
+    if (weighted) std::fill(scale.begin(), scale.end(), 1.0);
+    weighted = false;
+    noise_floor = plain_noise_floor;
+  }
+
+  // The plain residuals (before reweighting) at `point`: at hand if the last pass was there,
+  // else one residual pass. False if one is not finite.
+  bool plainAtPoint() {
+    if (plain_valid && plain_x == point) return true;
+    return pass(point, false) < kHugeResidual;
+  }
+
+  double plainSse() const {
+    double sse = 0;
+    for (double r : plain) sse += r * r;
+    return sse;
+  }
+
+  // Sets `scale` (sqrt(u v), see levenberg_marquardt.hpp) from the plain residuals at the
+  // current point, for round `round` (0: Lawson's weights start from 1).
+  void reweight(int round) {
+    const size_t n = rows, nc = channels.size();
+    const double* w = ds.weight();
+    if (round == 0) lawson.assign(nc * n, 1.0);
+    err.resize(n);
+    chan_err.assign(nc, 0.0);
+    double wsum = 0;
+    for (size_t r = 0; r < n; ++r) wsum += w[r];
+    for (size_t c = 0; c < nc; ++c) {
+      double* u = scale.data() + c * n;  // u first, sqrt(u v) below
+      const double* y = chan_y.data() + c * n;
+      for (size_t r = 0; r < n; ++r)
+        err[r] = sqrt_w[r] > 0 ? std::fabs(plain[c * n + r]) / sqrt_w[r] : 0.0;
+      switch (cfg.metric) {
+        case ErrorMetric::Rmse: {
+          double sse = 0;
+          for (size_t r = 0; r < n; ++r) sse += w[r] * err[r] * err[r];
+          chan_err[c] = std::sqrt(sse / wsum);
+          std::fill_n(u, n, 1.0);
+          break;
+        }
+        case ErrorMetric::Mae:
+        case ErrorMetric::MeanRel: {
+          const bool rel = cfg.metric == ErrorMetric::MeanRel;
+          double sum = 0, bsum = 0;
+          for (size_t r = 0; r < n; ++r) {
+            const double beta = rel ? 1.0 / std::max(std::fabs(y[r]), cfg.rel_floor) : 1.0;
+            sum += w[r] * beta * err[r];
+            bsum += w[r] * beta;
+          }
+          chan_err[c] = sum / wsum;
+          // An exact fit (every error 0) keeps the rows' base weights.
+          const double eps = sum > 0 ? kL1Eps * sum / bsum : 1.0;
+          for (size_t r = 0; r < n; ++r) {
+            const double beta = rel ? 1.0 / std::max(std::fabs(y[r]), cfg.rel_floor) : 1.0;
+            u[r] = beta / std::max(err[r], eps);
+          }
+          break;
+        }
+        case ErrorMetric::MaxAbs: {
+          double* l = lawson.data() + c * n;
+          double mx = 0, top = 0, sum = 0;
+          for (size_t r = 0; r < n; ++r) mx = w[r] > 0 ? std::max(mx, err[r]) : mx;
+          chan_err[c] = mx;
+          for (size_t r = 0; r < n; ++r) {
+            if (mx > 0) l[r] *= err[r] / mx;
+            top = std::max(top, l[r]);
+          }
+          for (size_t r = 0; r < n; ++r) {
+            l[r] = std::max(l[r], kLawsonFloor * top);
+            sum += w[r] * l[r];
+          }
+          for (size_t r = 0; r < n; ++r) {
+            l[r] = sum > 0 ? l[r] / sum : 1.0;  // a probability over the rows
+            u[r] = l[r];
+          }
+          break;
+        }
+      }
+    }
+    // Channel factors. The gradient of error_c is that of its surrogate times 1/error_c (rmse,
+    // max_abs: the surrogate is error_c^2) or 1 (mae, mean_rel), so under Mean that factor,
+    // capped. Under Max, the gradient of sum_c error_c^p, with p = 2, 4, 8, ... over the
+    // rounds: a continuation from the sum of squares toward the worst channel alone, from
+    // factors at the current point (Lawson's multiplicative update over a handful of channels
+    // swings from one to the other).
+    const bool squared = cfg.metric == ErrorMetric::Rmse || cfg.metric == ErrorMetric::MaxAbs;
+    double worst = 0;
+    for (double e : chan_err) worst = std::max(worst, e);
+    for (size_t c = 0; c < nc; ++c) {
+      double v = 1.0;
+      if (nc > 1 && worst > 0) {
+        const double rel = chan_err[c] / worst;
+        if (cfg.combine == OutputCombine::Max) {
+          const double p = std::ldexp(2.0, std::min(round, 5));
+          v = std::max(std::pow(rel, p - (squared ? 2 : 1)), kLawsonFloor);
+        } else if (squared) {
+          v = 1.0 / std::max(rel, kChannelCap);
+        }
+      }
+      double* u = scale.data() + c * n;
+      for (size_t r = 0; r < n; ++r) u[r] = std::sqrt(v * u[r]);
+    }
+    double sy2 = 0;
+    for (size_t i = 0; i < nc * n; ++i) sy2 += (swy[i] * scale[i]) * (swy[i] * scale[i]);
+    noise_floor = kNoiseFloor * sy2;
+    weighted = true;
+  }
+
+  // One solver run from `point` on the current weights, at most `iterations` iterations.
+  struct Run {
+    bool started = false;
+    double before = 0, after = 0;  // sum of squares (on the current weights)
+    int iterations = 0;
+    bool converged = false;
+  };
+  Run solve(int iterations, double tolerance) {
+    Run run;
+    lm.setXtol(kXtol);
+    lm.setGtol(0.0);
+    lm.setMaxfev(1 + kEvaluationsPerIteration * iterations);
+    auto status = lm.minimizeInit(point);
+    if (status != Eigen::LevenbergMarquardtSpace::NotStarted || !(lm.fnorm() < kHugeResidual))
+      return run;
+    run.started = true;
+    non_finite = 0;
+    run.before = lm.fnorm() * lm.fnorm();
+    double sse = run.before;
+    while (run.iterations < iterations) {
+      // Eigen's ftol is relative to the current sum of squares; raise it to the noise floor.
+      lm.setFtol(std::max(tolerance, sse > 0 ? noise_floor / sse : 0.0));
+      status = lm.minimizeOneStep(point);
+      ++run.iterations;
+      const double prev = sse;
+      sse = lm.fnorm() * lm.fnorm();
+      if (status != Eigen::LevenbergMarquardtSpace::Running) {
+        using namespace Eigen::LevenbergMarquardtSpace;
+        run.converged = status != TooManyFunctionEvaluation && status != ImproperInputParameters &&
+                        status != UserAsked;
+        break;
+      }
+      if (prev - sse <= std::max(tolerance * prev, noise_floor)) {
+        run.converged = true;
+        break;
+      }
+    }
+    // Accepted steps always lower the norm, so fnorm() is the sum at `point`, evaluated with
+    // its float constants, and finite.
+    run.after = sse;
+    return run;
+  }
+
+  Scorer& judge() {
+    if (!scorer) scorer = std::make_unique<Scorer>(ds, cfg, ds.blockSize());
+    return *scorer;
   }
 
   // Columns of A = [J | r] that can be nonzero in channel c's rows (ascending; the residual
@@ -439,6 +643,7 @@ struct ConstantFitter::Impl {
   }
 
   const Dataset& ds;
+  ErrorConfig cfg;
   JacobianEvaluator jac;
   std::vector<TargetTransform> transforms;
   bool scaling = false;
@@ -462,7 +667,17 @@ struct ConstantFitter::Impl {
   Eigen::MatrixXd seg_gram;              // one channel segment's share of gram
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
   Eigen::Index num_vars = 0, num_res = 0;
-  double noise_floor = 0;  // kNoiseFloor * sum(w y^2) over channels
+  double noise_floor = 0;  // kNoiseFloor * sum(w y^2) over channels, reweighted
+  double plain_noise_floor = 0;
+  std::vector<double> chan_y;         // [channel * rows + r]: channel target
+  std::vector<double> scale;          // [channel * rows + r]: reweighting of the residual (1: none)
+  bool weighted = false;              // scale is not all 1
+  std::vector<double> plain;          // [channel * rows + r]: residuals of the last pass, unscaled
+  Eigen::VectorXd plain_x;            // the point of `plain`
+  bool plain_valid = false;           // plain holds a finite pass at plain_x
+  std::vector<double> lawson;         // max_abs: Lawson's row weights, per channel a probability
+  std::vector<double> err, chan_err;  // reweight's |e| of one channel, error per channel
+  std::unique_ptr<Scorer> scorer;     // judges reweighted rounds
   int evaluations = 0, non_finite = 0;
   Eigen::VectorXd point;  // the solver's current point
   Functor functor;
@@ -473,6 +688,14 @@ ConstantFitter::ConstantFitter(const Dataset& ds, const ErrorConfig& cfg)
     : impl_(std::make_unique<Impl>(ds, cfg)) {}
 ConstantFitter::~ConstantFitter() = default;
 ConstantFitter::ConstantFitter(ConstantFitter&&) noexcept = default;
+
+bool ConstantFitter::reweights(const LevenbergMarquardtConfig& c) const {
+  // Under linear scaling the Scorer refits each output's scale by least squares, whatever LM
+  // found for it: constants fitted with scales tuned to the error are judged with other scales
+  // (on the DFG table that lost to plain least squares and the Nelder-Mead polish).
+  return c.objective == LmObjective::Configured && !impl_->scaling &&
+         !(impl_->cfg.metric == ErrorMetric::Rmse && impl_->channels.size() == 1);
+}
 
 ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig& c) {
   Impl& m = *impl_;
@@ -485,50 +708,90 @@ ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig
   if (m.num_res <= m.num_vars || k != m.ds.numOutputs()) return res;
   m.evaluations = 0;
   m.non_finite = 0;
+  m.plain_valid = false;
   m.point.resize(m.num_vars);
   for (int i = 0; i < np; ++i) m.point[i] = p.constants[m.jac.parameters()[i]];
   m.findActiveColumns();
   if (m.scaling) m.initialScales(m.point, np);
+  auto adopt = [&](const Eigen::VectorXd& x) {
+    for (int i = 0; i < np; ++i) p.constants[m.jac.parameters()[i]] = static_cast<float>(x[i]);
+  };
 
-  auto& lm = m.lm;
-  lm.setXtol(kXtol);
-  lm.setGtol(0.0);
-  lm.setMaxfev(1 + kEvaluationsPerIteration * c.max_iterations);
-  auto status = lm.minimizeInit(m.point);
-  res.evaluations = m.evaluations;
-  if (status != Eigen::LevenbergMarquardtSpace::NotStarted || !(lm.fnorm() < kHugeResidual))
+  if (!reweights(c)) {
+    m.unweight();
+    const Impl::Run run = m.solve(c.max_iterations, c.tolerance);
+    res.evaluations = m.evaluations;
+    if (!run.started) return res;
+    res.iterations = run.iterations;
+    res.converged = run.converged;
+    res.non_finite = m.non_finite;
+    res.sse_before = run.before;
+    res.sse_after = run.before;
+    if (run.after < run.before) {
+      res.sse_after = run.after;
+      res.improved = true;
+      adopt(m.point);
+    }
     return res;
-  m.non_finite = 0;
-  res.sse_before = lm.fnorm() * lm.fnorm();
-  res.sse_after = res.sse_before;
-  double sse = res.sse_before;
-  while (res.iterations < c.max_iterations) {
-    // Eigen's ftol is relative to the current sum of squares; raise it to the noise floor.
-    lm.setFtol(std::max(c.tolerance, sse > 0 ? m.noise_floor / sse : 0.0));
-    status = lm.minimizeOneStep(m.point);
-    ++res.iterations;
-    const double prev = sse;
-    sse = lm.fnorm() * lm.fnorm();
-    if (status != Eigen::LevenbergMarquardtSpace::Running) {
-      using namespace Eigen::LevenbergMarquardtSpace;
-      res.converged = status != TooManyFunctionEvaluation && status != ImproperInputParameters &&
-                      status != UserAsked;
+  }
+
+  // Reweighted rounds, each end point judged by the Scorer; the best one is kept.
+  Scorer& judge = m.judge();
+  Program work = p;
+  res.error_before = judge.error(work);
+  ++m.evaluations;
+  double best_err = res.error_before;
+  Eigen::VectorXd best = m.point;
+  int non_finite = 0;
+  if (!m.plainAtPoint()) {
+    res.evaluations = m.evaluations;
+    return res;
+  }
+  res.sse_before = m.plainSse();
+  double best_sse = res.sse_before;
+  int left = c.max_iterations;
+  for (int round = 0; round < c.max_rounds && left > 0; ++round) {
+    m.reweight(round);
+    const Eigen::VectorXd from = m.point;
+    const Impl::Run run = m.solve(std::min(left, kRoundIterations), c.tolerance);
+    non_finite += m.non_finite;
+    ++res.rounds;
+    left -= run.iterations;
+    res.iterations += run.iterations;
+    bool better = false;
+    // The round's step, halved while the Scorer does not take it: frozen weights overshoot
+    // (they are the gradient at the round's start only).
+    for (int h = 0; h <= kHalvings && run.started && run.after < run.before && !better; ++h) {
+      if (h > 0) m.point = 0.5 * (from + m.point);
+      adopt(m.point);
+      work.constants = p.constants;
+      const double e = judge.error(work);
+      ++m.evaluations;
+      better = e < best_err;
+      if (better) {
+        best_err = e;
+        best = m.point;
+      }
+    }
+    if (!better) {
+      // No step, or one the Scorer does not take: the reweighting has reached what it can.
+      res.converged = run.started && run.converged;
       break;
     }
-    if (prev - sse <= std::max(c.tolerance * prev, m.noise_floor)) {
-      res.converged = true;
-      break;
-    }
+    if (!m.plainAtPoint()) break;  // the next round's weights, and the sum of squares here
+    best_sse = m.plainSse();
   }
   res.evaluations = m.evaluations;
-  res.non_finite = m.non_finite;
-  // Accepted steps always lower the norm, so fnorm() is the sum at x, evaluated with x's
-  // float constants, and finite.
-  if (sse < res.sse_before) {
-    res.sse_after = sse;
+  res.non_finite = non_finite;
+  res.error_after = best_err;
+  if (best_err < res.error_before) {
     res.improved = true;
-    for (int i = 0; i < np; ++i)
-      p.constants[m.jac.parameters()[i]] = static_cast<float>(m.point[i]);
+    res.sse_after = best_sse;
+    adopt(best);
+  } else {
+    res.error_after = res.error_before;
+    res.sse_after = res.sse_before;
+    adopt(best);  // the starting constants (a rejected round moved p's)
   }
   return res;
 }

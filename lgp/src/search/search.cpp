@@ -68,8 +68,14 @@ Search::Search(RunConfig cfg, Table table)
         err_cfg_.channels.empty() ? table_.numOutputs() : err_cfg_.channels.size();
     bool transformed = false;
     for (TargetTransform t : err_cfg_.transforms) transformed |= t != TargetTransform::None;
-    lm_fits_the_error_ = err_cfg_.metric == ErrorMetric::Rmse && channels == 1 &&
-                         !(err_cfg_.linear_scaling && transformed);
+    // Plain least squares is the error for rmse on one channel, except that the Scorer refits
+    // the scale of a transformed output on the transformed scale, LM on the original one.
+    // Reweighted rounds (lm_metric configured) are judged by the Scorer itself; under linear
+    // scaling LM fits plain least squares (ConstantFitter::reweights).
+    const bool plain_is_error = err_cfg_.metric == ErrorMetric::Rmse && channels == 1;
+    lm_fits_the_error_ = plain_is_error ? !(err_cfg_.linear_scaling && transformed)
+                                        : cfg_.search.refine.lm_metric == LmObjective::Configured &&
+                                              !err_cfg_.linear_scaling;
   }
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
@@ -125,19 +131,25 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
   if (slots.empty() || !ind.obj.finite()) return;
   Scorer& s = scorer(thread);
   const auto& sched = cfg_.search.refine;
-  // Derivatives first: Levenberg-Marquardt on the sum of squares, with exact Jacobians. The
-  // scorer has the last word (the objective may be max_abs, or a mean over channels).
+  // Derivatives first: Levenberg-Marquardt with exact Jacobians, on the configured error
+  // (reweighted least squares) or the plain sum of squares (lm_metric). The scorer has the
+  // last word.
   const int lm_iterations = full ? sched.archive_lm_iterations : sched.lm_iterations;
   bool lm_helped = false;
   if (lm_iterations > 0) {
     Program work = ind.program;
     LevenbergMarquardtConfig lm;
     lm.max_iterations = lm_iterations;
+    lm.objective = sched.lm_metric;
     const auto fit = fitter(thread).fit(work, lm);
     evals += static_cast<uint64_t>(fit.evaluations);
+    lm_fits_.fetch_add(1, std::memory_order_relaxed);
+    lm_evaluations_.fetch_add(static_cast<uint64_t>(fit.evaluations), std::memory_order_relaxed);
+    if (fit.converged && !fit.improved) lm_converged_.fetch_add(1, std::memory_order_relaxed);
     // Constants already at LM's optimum (clones and intron-only mutants of refined parents,
     // mostly) of the error the scorer measures: a quick Nelder-Mead polish from there finds
-    // nothing, so it is skipped. Other metrics (max_abs, say) still get it.
+    // nothing, so it is skipped. Where LM fits something else (least_squares with max_abs,
+    // say) the polish still runs.
     if (!full && !fit.improved && fit.converged && lm_fits_the_error_) return;
     if (fit.improved) {
       const Objectives o = score(s, work);
@@ -146,6 +158,7 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
         ind.program = std::move(work);
         ind.obj = o;
         lm_helped = true;
+        lm_accepted_.fetch_add(1, std::memory_order_relaxed);
       }
     }
   }
@@ -173,6 +186,7 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
     nm.restarts = 0;
   }
   std::vector<double> start = x0;
+  const uint64_t evals_before = evals;
   if (full && sched.method == RefineMethod::DeThenNm) {
     // A global step first: Nelder-Mead alone stalls in the nearest basin.
     DifferentialEvolutionConfig de;
@@ -183,6 +197,8 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
   }
   const auto res = nelderMead(f, start, nm, rng);
   evals += static_cast<uint64_t>(res.evaluations);
+  nm_runs_.fetch_add(1, std::memory_order_relaxed);
+  nm_evaluations_.fetch_add(evals - evals_before, std::memory_order_relaxed);
   if (res.f < ind.obj.error) {
     for (size_t k = 0; k < slots.size(); ++k)
       ind.program.constants[slots[k]] = static_cast<float>(res.x[k]);
@@ -656,6 +672,17 @@ void Search::archiveInsert(const Program& p, const Objectives& o, bool refined) 
   ++measurements_;
   m.cost = c ? *c : o.cost;
   archive_.insert(p, m, refined);
+}
+
+RefineStats Search::refineStats() const {
+  RefineStats r;
+  r.lm_fits = lm_fits_.load();
+  r.lm_accepted = lm_accepted_.load();
+  r.lm_converged = lm_converged_.load();
+  r.lm_evaluations = lm_evaluations_.load();
+  r.nm_runs = nm_runs_.load();
+  r.nm_evaluations = nm_evaluations_.load();
+  return r;
 }
 
 SearchProgress Search::progress() const {

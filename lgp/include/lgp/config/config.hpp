@@ -28,6 +28,7 @@
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/eval/objectives.hpp"
+#include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/nelder_mead.hpp"
 #include "lgp/search/pareto.hpp"
 
@@ -101,9 +102,10 @@ enum class RefineMethod : uint8_t {
 
 // Constant refinement. Offspring picked for it (offspring_share) get lm_iterations of
 // Levenberg-Marquardt with exact Jacobians, and a quick Nelder-Mead polish only where that did
-// not improve them, unless LM converged on the error itself (rmse of one channel: then the
-// constants are already at its optimum); archive members get archive_lm_iterations of LM, then the
-// full derivative-free refinement (`method`).
+// not improve them, unless LM converged on the error itself (then the constants are already
+// at its optimum; with lm_metric least_squares that is only rmse of one channel); archive
+// members get archive_lm_iterations of LM, then the full derivative-free refinement
+// (`method`).
 struct NelderMeadSchedule {
   double offspring_share = 1.0;    // share of each generation's offspring refined
   int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free
@@ -114,6 +116,9 @@ struct NelderMeadSchedule {
   NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients
   RefineMethod method = RefineMethod::NelderMead;  // of the full (archive) refinement
   int de_evaluations = 300;                        // DE budget before Nelder-Mead (de+nm)
+  // What LM fits: the configured error (reweighted rounds, levenberg_marquardt.hpp) or the
+  // plain sum of squares.
+  LmObjective lm_metric = LmObjective::Configured;
 };
 
 enum class MultiOutputMode : uint8_t {
@@ -226,6 +231,7 @@ struct RunConfig {
 std::vector<Op> defaultOps();
 
 std::string_view toString(RefineMethod m);
+std::string_view toString(LmObjective o);
 std::string_view toString(MultiOutputMode m);
 std::string_view toString(MigrationMode m);
 

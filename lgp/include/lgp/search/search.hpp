@@ -54,6 +54,14 @@
 
 namespace lgp {
 
+// What constant refinement did in this process (not checkpointed): LM fits run, those whose
+// result the scorer took, those that converged without improving, and the Nelder-Mead (and
+// DE) runs with their evaluations.
+struct RefineStats {
+  uint64_t lm_fits = 0, lm_accepted = 0, lm_converged = 0, lm_evaluations = 0;
+  uint64_t nm_runs = 0, nm_evaluations = 0;
+};
+
 struct SearchProgress {
   int generation = 0;
   uint64_t evaluations = 0;
@@ -151,6 +159,7 @@ class Search {
   void run(const std::function<void(const SearchProgress&)>& on_progress = {});
 
   SearchProgress progress() const;
+  RefineStats refineStats() const;
   // The archive's non-dominated members, sorted by cost then error, with full metrics. The
   // post-run pass: unless setSnapTwins(false), the snapped twin of every member (snap.hpp,
   // then simplified on the table's domain and relinearised) goes to a copy of the archive
@@ -260,8 +269,12 @@ class Search {
   double elapsed_before_ = 0;  // from restored checkpoints
   std::chrono::steady_clock::time_point start_;
   std::atomic<bool> stop_{false};
-  // LM's least squares is the error the scorer measures (rmse of one channel, and no target
-  // transform under linear scaling): where LM has converged, Nelder-Mead has nothing to add.
+  // RefineStats, counted by every thread.
+  std::atomic<uint64_t> lm_fits_{0}, lm_accepted_{0}, lm_converged_{0}, lm_evaluations_{0};
+  std::atomic<uint64_t> nm_runs_{0}, nm_evaluations_{0};
+  // LM fits the error the scorer measures (lm_metric configured, or plain least squares on
+  // rmse of one channel; not a transformed output under linear scaling, whose scale LM and the
+  // scorer fit on different scales): where LM has converged, Nelder-Mead has nothing to add.
   bool lm_fits_the_error_ = false;
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
   std::vector<Program> seeds_;
