@@ -28,6 +28,7 @@
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/eval/objectives.hpp"
+#include "lgp/search/migration.hpp"
 #include "lgp/search/nelder_mead.hpp"
 #include "lgp/search/pareto.hpp"
 
@@ -114,6 +115,9 @@ struct NelderMeadSchedule {
   NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients
   RefineMethod method = RefineMethod::NelderMead;  // of the full (archive) refinement
   int de_evaluations = 300;                        // DE budget before Nelder-Mead (de+nm)
+  // Which unrefined members a period serves first ("accurate": lowest error first; "oldest":
+  // storage order, which starves the fast-changing accurate end behind long-lived cheap ones).
+  ArchiveRefineOrder archive_order = ArchiveRefineOrder::Accurate;
 };
 
 enum class MultiOutputMode : uint8_t {
@@ -138,6 +142,9 @@ struct IslandConfig {
   int migrants = 4;             // first-front members each island sends per migration
   int restart_after = 0;        // generations without a better island best before the island
                                 // restarts from random programs and archive members; 0 = never
+  // How the members of each archive refinement rejoin the islands (one island each):
+  // "interleaved" (in turn) or "by_cost" (consecutive cost slices, see IslandDeal).
+  IslandDeal deal = IslandDeal::Interleaved;
   Status validate() const;
 };
 
@@ -226,6 +233,8 @@ struct RunConfig {
 std::vector<Op> defaultOps();
 
 std::string_view toString(RefineMethod m);
+std::string_view toString(ArchiveRefineOrder o);
+std::string_view toString(IslandDeal d);
 std::string_view toString(MultiOutputMode m);
 std::string_view toString(MigrationMode m);
 
