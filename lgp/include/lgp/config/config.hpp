@@ -117,6 +117,7 @@ struct NelderMeadSchedule {
   int de_evaluations = 300;                        // DE budget before Nelder-Mead (de+nm)
   // Which unrefined members a period serves first ("accurate": lowest error first; "oldest":
   // storage order, which starves the fast-changing accurate end behind long-lived cheap ones).
+  // It decides who waits only when more than archive_max members are unrefined.
   ArchiveRefineOrder archive_order = ArchiveRefineOrder::Accurate;
 };
 
