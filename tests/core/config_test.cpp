@@ -132,6 +132,30 @@ TEST(Config, OverridesAndTransformsApply) {
   EXPECT_NE(errorOf(j).find("/data/transforms/z"), std::string::npos);
 }
 
+TEST(Config, ArchiveOrderAndIslandDeal) {
+  json j = minimal();
+  auto d = parseRunConfig(j, ".");
+  ASSERT_TRUE(d) << d.error();
+  EXPECT_EQ(d->search.refine.archive_order, ArchiveRefineOrder::Oldest);
+  EXPECT_EQ(d->search.islands.deal, IslandDeal::Interleaved);
+  j["search"] = {{"refine", {{"archive_order", "accurate"}}}, {"islands", {{"deal", "by_cost"}}}};
+  auto c = parseRunConfig(j, ".");
+  ASSERT_TRUE(c) << c.error();
+  EXPECT_EQ(c->search.refine.archive_order, ArchiveRefineOrder::Accurate);
+  EXPECT_EQ(c->search.islands.deal, IslandDeal::ByCost);
+  auto again = parseRunConfig(toJson(*c), ".");
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(toJson(*again), toJson(*c));
+  j["search"] = {{"refine", {{"archive_order", "newest"}}}};
+  EXPECT_NE(errorOf(j).find("/search/refine/archive_order: must be \"accurate\" or \"oldest\""),
+            std::string::npos)
+      << errorOf(j);
+  j["search"] = {{"islands", {{"deal", "all"}}}};
+  EXPECT_NE(errorOf(j).find("/search/islands/deal: must be \"interleaved\" or \"by_cost\""),
+            std::string::npos)
+      << errorOf(j);
+}
+
 TEST(Config, MeasuredCostFamiliesAndSwitch) {
   json j = minimal();
   auto d = parseRunConfig(j, ".");

@@ -20,6 +20,12 @@ std::string_view toString(RefineMethod m) {
 std::string_view toString(LmObjective o) {
   return o == LmObjective::LeastSquares ? "least_squares" : "configured";
 }
+std::string_view toString(ArchiveRefineOrder o) {
+  return o == ArchiveRefineOrder::Oldest ? "oldest" : "accurate";
+}
+std::string_view toString(IslandDeal d) {
+  return d == IslandDeal::ByCost ? "by_cost" : "interleaved";
+}
 std::string_view toString(MultiOutputMode m) {
   return m == MultiOutputMode::TwoStep ? "two_step" : "joint";
 }
@@ -299,6 +305,16 @@ void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
   o.integer("offspring_evaluations", r.offspring_evaluations, 1, 1 << 30);
   o.integer("archive_period", r.archive_period, 0, 1 << 30);
   o.integer("archive_max", r.archive_max, 0, 1 << 20);
+  if (o.has("archive_order")) {
+    const auto& v = o.at("archive_order");
+    if (v == "accurate")
+      r.archive_order = ArchiveRefineOrder::Accurate;
+    else if (v == "oldest")
+      r.archive_order = ArchiveRefineOrder::Oldest;
+    else
+      fail("/search/refine/archive_order",
+           "must be \"accurate\" or \"oldest\" (got " + v.dump() + ")");
+  }
   o.integer("max_evaluations", r.nm.max_evaluations, 1, 1 << 30);
   o.integer("restarts", r.nm.restarts, 0, 1000);
   o.number("initial_step", r.nm.initial_step, 0, 1e6, true);
@@ -372,6 +388,15 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
   o.integer("migration_interval", c.migration_interval, 0, 1 << 30);
   o.integer("migrants", c.migrants, 0, 1 << 20);
   o.integer("restart_after", c.restart_after, 0, 1 << 30);
+  if (o.has("deal")) {
+    const auto& v = o.at("deal");
+    if (v == "interleaved")
+      c.deal = IslandDeal::Interleaved;
+    else if (v == "by_cost")
+      c.deal = IslandDeal::ByCost;
+    else
+      fail("/search/islands/deal", "must be \"interleaved\" or \"by_cost\" (got " + v.dump() + ")");
+  }
   o.finish();
 }
 
@@ -701,7 +726,8 @@ nlohmann::json toJson(const RunConfig& c) {
              {{"count", s.islands.count},
               {"migration_interval", s.islands.migration_interval},
               {"migrants", s.islands.migrants},
-              {"restart_after", s.islands.restart_after}}},
+              {"restart_after", s.islands.restart_after},
+              {"deal", std::string(toString(s.islands.deal))}}},
             {"variation",
              {{"crossover_rate", s.variation.crossover_rate},
               {"macro_rate", s.variation.macro_rate},
@@ -717,6 +743,7 @@ nlohmann::json toJson(const RunConfig& c) {
               {"offspring_evaluations", s.refine.offspring_evaluations},
               {"archive_period", s.refine.archive_period},
               {"archive_max", s.refine.archive_max},
+              {"archive_order", std::string(toString(s.refine.archive_order))},
               {"max_evaluations", s.refine.nm.max_evaluations},
               {"restarts", s.refine.nm.restarts},
               {"initial_step", s.refine.nm.initial_step},

@@ -221,4 +221,20 @@ std::vector<ArchiveMember> Archive::sorted() const {
   return out;
 }
 
+std::vector<int> refineQueue(const std::vector<ArchiveMember>& members, int max,
+                             ArchiveRefineOrder order) {
+  std::vector<int> todo;
+  for (int i = 0; i < static_cast<int>(members.size()); ++i)
+    if (!members[i].refined) todo.push_back(i);
+  if (order == ArchiveRefineOrder::Accurate)
+    std::stable_sort(todo.begin(), todo.end(), [&](int a, int b) {
+      const Objectives &x = members[a].obj, &y = members[b].obj;
+      if (x.error != y.error) return x.error < y.error;
+      if (x.cost != y.cost) return x.cost < y.cost;
+      return x.discontinuity < y.discontinuity;
+    });
+  if (static_cast<int>(todo.size()) > max) todo.resize(std::max(0, max));
+  return todo;
+}
+
 }  // namespace lgp

@@ -560,10 +560,8 @@ void Search::step(bool check_budget) {
 
 void Search::refineArchive() {
   auto& members = archive_.mutableMembers();
-  std::vector<int> todo;
-  for (int i = 0; i < static_cast<int>(members.size()); ++i)
-    if (!members[i].refined && static_cast<int>(todo.size()) < cfg_.search.refine.archive_max)
-      todo.push_back(i);
+  const std::vector<int> todo =
+      refineQueue(members, cfg_.search.refine.archive_max, cfg_.search.refine.archive_order);
   if (todo.empty()) return;
   std::vector<Individual> inds(todo.size());
   for (size_t k = 0; k < todo.size(); ++k) {
@@ -583,11 +581,15 @@ void Search::refineArchive() {
   evaluations_ += evals;
   session_evals_ += evals;
   for (const auto& ind : inds) archiveInsert(ind.program, ind.obj, true);
-  // Refined members also rejoin the islands (dealt in turn) so their constants propagate.
+  // Refined members also rejoin the islands, each one island, so their constants propagate.
   const int count = static_cast<int>(islands_.size());
+  std::vector<Objectives> objs;
+  objs.reserve(inds.size());
+  for (const auto& ind : inds) objs.push_back(ind.obj);
+  const std::vector<int> to = dealIslands(objs, count, cfg_.search.islands.deal);
   std::vector<std::vector<Individual>> pools(count);
   for (int k = 0; k < count; ++k) pools[k] = std::move(islands_[k].pop);
-  for (size_t j = 0; j < inds.size(); ++j) pools[j % count].push_back(std::move(inds[j]));
+  for (size_t j = 0; j < inds.size(); ++j) pools[to[j]].push_back(std::move(inds[j]));
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(island_first_ + k));
 }

@@ -29,6 +29,7 @@
 #include "lgp/core/program.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
+#include "lgp/search/migration.hpp"
 #include "lgp/search/nelder_mead.hpp"
 #include "lgp/search/pareto.hpp"
 
@@ -119,6 +120,11 @@ struct NelderMeadSchedule {
   // What LM fits: the configured error (reweighted rounds, levenberg_marquardt.hpp) or the
   // plain sum of squares.
   LmObjective lm_metric = LmObjective::Configured;
+  // Which unrefined members a period serves first ("oldest": storage order; "accurate":
+  // lowest error first). It decides who waits only when more than archive_max members are
+  // unrefined; on the DFG ablation (3 seeds, archive_max 4) "accurate" did not do better, so
+  // the default stays the storage order.
+  ArchiveRefineOrder archive_order = ArchiveRefineOrder::Oldest;
 };
 
 enum class MultiOutputMode : uint8_t {
@@ -143,6 +149,9 @@ struct IslandConfig {
   int migrants = 4;             // first-front members each island sends per migration
   int restart_after = 0;        // generations without a better island best before the island
                                 // restarts from random programs and archive members; 0 = never
+  // How the members of each archive refinement rejoin the islands (one island each):
+  // "interleaved" (in turn) or "by_cost" (consecutive cost slices, see IslandDeal).
+  IslandDeal deal = IslandDeal::Interleaved;
   Status validate() const;
 };
 
@@ -232,6 +241,8 @@ std::vector<Op> defaultOps();
 
 std::string_view toString(RefineMethod m);
 std::string_view toString(LmObjective o);
+std::string_view toString(ArchiveRefineOrder o);
+std::string_view toString(IslandDeal d);
 std::string_view toString(MultiOutputMode m);
 std::string_view toString(MigrationMode m);
 

@@ -53,6 +53,19 @@ class LocalTransport final : public MigrationTransport {
   uint64_t sent_ = 0;
 };
 
+// How the members of one periodic archive refinement are dealt back to the islands. Each
+// member goes to one island either way.
+enum class IslandDeal : uint8_t {
+  Interleaved,  // in refinement order, member j to island j mod K: every island gets a sample
+                // of the whole batch (cheap and accurate members alike)
+  ByCost        // the batch sorted by cost and cut into K consecutive slices, island k taking
+                // the k-th: each island is fed its own stretch of the front, so the islands
+                // are pushed apart instead of towards the same mix
+};
+
+// The island (0..islands-1) each of `objs` goes to; deterministic for the same input.
+std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, IslandDeal deal);
+
 // The island that island `from` sends to: the next one on a ring.
 inline int migrationTarget(int from, int islands) {
   return (from + 1) % islands;

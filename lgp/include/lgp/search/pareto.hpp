@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include <nlohmann/json_fwd.hpp>
@@ -70,5 +71,18 @@ class Archive {
   ArchiveConfig cfg_;
   std::vector<ArchiveMember> members_;
 };
+
+// Which unrefined archive members a periodic full refinement serves first.
+enum class ArchiveRefineOrder : uint8_t {
+  Oldest,   // storage order: the longest-lived first (long-lived cheap members, mostly)
+  Accurate  // lowest error first: the accurate end, whose members are replaced fastest and so
+            // would otherwise rarely reach the head of the queue
+};
+
+// Indices of at most `max` unrefined members of `members`, in the order they are refined.
+// Deterministic: ties in error go to the lower cost, then the lower discontinuity, then the
+// earlier member.
+std::vector<int> refineQueue(const std::vector<ArchiveMember>& members, int max,
+                             ArchiveRefineOrder order);
 
 }  // namespace lgp
