@@ -5,12 +5,15 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/mount.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -300,5 +303,50 @@ inline int runProgram(const std::vector<std::string>& args, std::string* out,
   if (out) *out = std::move(buf);
   return code;
 }
+
+// A tmpfs of `mb` MiB on `dir`, unmounted on destruction; mounted() is false where this
+// process may not mount (not root, no CAP_SYS_ADMIN, a restricted container).
+class SmallDisk {
+ public:
+  SmallDisk(const fs::path& dir, int mb) : dir_(dir) {
+    fs::create_directories(dir);
+    const std::string opts = "size=" + std::to_string(mb) + "m";
+    if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, opts.c_str()) == 0)
+      mounted_ = true;
+    else
+      why_ = std::strerror(errno);
+  }
+  ~SmallDisk() {
+    if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
+  }
+  bool mounted() const { return mounted_; }
+  const fs::path& dir() const { return dir_; }
+  const std::string& why() const { return why_; }
+
+  // Writes a file until the disk is full. Returns the bytes written.
+  size_t fill() const {
+    int fd = ::open((dir_ / "filler").c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd < 0) return 0;
+    size_t total = 0;
+    std::vector<char> chunk(1 << 20, 'x');
+    for (size_t size : {size_t{1} << 20, size_t{4096}, size_t{1}})
+      for (;;) {
+        ssize_t n = ::write(fd, chunk.data(), size);
+        if (n <= 0) break;
+        total += static_cast<size_t>(n);
+      }
+    ::close(fd);
+    return total;
+  }
+  void unfill() const {
+    std::error_code ec;
+    fs::remove(dir_ / "filler", ec);
+  }
+
+ private:
+  fs::path dir_;
+  bool mounted_ = false;
+  std::string why_;
+};
 
 }  // namespace lgpd_test

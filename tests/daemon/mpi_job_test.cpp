@@ -453,6 +453,45 @@ TEST_F(MpirunTest, TwoRanksFinishWithAFrontInTheStore) {
   EXPECT_EQ(d.stop(), 0) << d.log();
 }
 
+TEST_F(MpirunTest, AFullDiskFailsTheRunWithTheReason) {
+  // The data dir on a small tmpfs: once it is full, neither the ranks' files nor the store's
+  // checkpoints can be written, and the run must end "failed" with a reason, not stay
+  // "running"; DELETE still works.
+  SmallDisk disk(tmp_->path() / "disk", 48);
+  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a small tmpfs here: " << disk.why();
+  Daemon d(disk.dir() / "state");
+  ASSERT_TRUE(d.start(flags()));
+  std::string id = d.submit(mpiConfig(table_, 2, 1000000));
+  ASSERT_FALSE(id.empty());
+  json r = d.waitFor(
+      id,
+      [](const json& j) {
+        return j["checkpoint"].is_object() ||
+               j.value("status", "") != "running" && j.value("status", "") != "queued";
+      },
+      60);
+  ASSERT_EQ(r.value("status", ""), "running") << r.dump() << d.log();
+  ASSERT_GT(disk.fill(), 0u);
+  r = d.waitFor(
+      id,
+      [](const json& j) {
+        const std::string st = j.value("status", "");
+        return st != "running" && st != "queued";
+      },
+      90);
+  EXPECT_EQ(r.value("status", ""), "failed") << r.dump() << d.log();
+  // Whichever write failed first: the store's (the launch is stopped) or a rank's.
+  const std::string error = r.value("error", "");
+  EXPECT_TRUE(error.find("cannot store the run's") != std::string::npos ||
+              error.find("MPI launch failed") != std::string::npos)
+      << error;
+  std::printf("the run's error: %s\n", r.value("error", "").substr(0, 300).c_str());
+  EXPECT_EQ(d.del("/api/v1/runs/" + id).status, 200);
+  EXPECT_TRUE(d.alive());
+  disk.unfill();
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 TEST_F(MpirunTest, CancelEndsTheRunCancelledWithAFront) {
   Daemon d(state_);
   ASSERT_TRUE(d.start(flags()));
