@@ -17,8 +17,8 @@
 //   5. Offspring enter the archive. Every islands.migration_interval generations each island
 //      sends first-front members to the next (migration.hpp); every `archive_period`
 //      generations up to `archive_max` archive members not yet fully refined (in storage
-//      order, or the most accurate first: refine.archive_order) get the full refinement and rejoin the islands,
-//      each one island (islands.deal).
+//      order, or the most accurate first: refine.archive_order) get the full refinement and rejoin
+//      the islands, each one island (islands.deal).
 // Budgets: generations, evaluations (refinement evaluations included; an LM Jacobian pass
 // over n constants counts 1 + n, see ConstantFitResult), wall time, or a stop request
 // (Ctrl-C); the check happens between generations.
