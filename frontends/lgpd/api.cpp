@@ -165,10 +165,7 @@ json runSummary(const RunRecord& r, bool active) {
 
 class Api {
  public:
-  Api(Store& store, JobManager& jobs) : store_(store), jobs_(jobs) {}
-
-  // What the server calls (http_server.hpp).
-  HttpHandlers handlers() {
+  Api(Store& store, JobManager& jobs) : store_(store), jobs_(jobs) {
     const auto& cfg = jobs_.daemonConfig();
     max_body_ = cfg.max_body_bytes;
     token_ = cfg.token;
@@ -178,17 +175,8 @@ class Api {
                                                                          : addr->host);
     allowed_hosts_.insert(allowed_hosts_.end(), cfg.allowed_hosts.begin(), cfg.allowed_hosts.end());
     allowed_origins_ = cfg.allowed_origins;
-
-    HttpHandlers h;
-    h.head = [this](const HttpRequest& req, HttpResponse& res) { head(req, res); };
-    h.route = [this](const HttpRequest& req, HttpResponse& res) { dispatch(req, res); };
-    h.default_headers = {{"X-Content-Type-Options", "nosniff"},
-                         {"Cache-Control", "no-store"},
-                         {"Referrer-Policy", "no-referrer"}};
-    return h;
   }
 
- private:
   // After the request line and headers, before any of the body is read: the framing, the
   // site, the token, and a POST's content type (none of them needs the body).
   void head(const HttpRequest& req, HttpResponse& res) {
@@ -232,6 +220,7 @@ class Api {
     route(req, res, req.body);
   }
 
+ private:
   static bool isApi(const std::string& path) {
     return path == "/api/v1" || path.rfind("/api/v1/", 0) == 0;
   }
@@ -670,11 +659,12 @@ class Api {
 HttpHandlers makeApi(Store& store, JobManager& jobs) {
   // The handlers share the Api object and keep it alive.
   auto api = std::make_shared<Api>(store, jobs);
-  HttpHandlers h = api->handlers();
-  h.head = [api, f = std::move(h.head)](const HttpRequest& req, HttpResponse& res) { f(req, res); };
-  h.route = [api, f = std::move(h.route)](const HttpRequest& req, HttpResponse& res) {
-    f(req, res);
-  };
+  HttpHandlers h;
+  h.head = [api](const HttpRequest& req, HttpResponse& res) { api->head(req, res); };
+  h.route = [api](const HttpRequest& req, HttpResponse& res) { api->dispatch(req, res); };
+  h.default_headers = {{"X-Content-Type-Options", "nosniff"},
+                       {"Cache-Control", "no-store"},
+                       {"Referrer-Policy", "no-referrer"}};
   return h;
 }
 

@@ -55,6 +55,12 @@ void HttpResponse::setHeader(std::string name, std::string value) {
   headers.emplace_back(std::move(name), std::move(value));
 }
 
+bool HttpResponse::hasHeader(std::string_view name) const {
+  for (const auto& [k, v] : headers)
+    if (sameName(k, name)) return true;
+  return false;
+}
+
 void HttpResponse::setContent(std::string content, std::string content_type) {
   body = std::move(content);
   setHeader("Content-Type", std::move(content_type));

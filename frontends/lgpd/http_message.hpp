@@ -37,6 +37,7 @@ struct HttpResponse {
   bool close = false;  // close the connection after this response
 
   void setHeader(std::string name, std::string value);
+  bool hasHeader(std::string_view name) const;  // names compare case-insensitively
   void setContent(std::string content, std::string content_type);
   bool answered() const { return status != 0; }
 };

@@ -231,12 +231,8 @@ struct Callbacks {
     MHD_Response* r = MHD_create_response_from_buffer(
         res.body.size(), const_cast<char*>(res.body.data()), MHD_RESPMEM_MUST_COPY);
     if (r == nullptr) return MHD_NO;
-    for (const auto& [k, v] : server->handlers_.default_headers) {
-      const bool own = std::any_of(res.headers.begin(), res.headers.end(), [&](const auto& h) {
-        return strcasecmp(h.first.c_str(), k.c_str()) == 0;
-      });
-      if (!own) MHD_add_response_header(r, k.c_str(), v.c_str());
-    }
+    for (const auto& [k, v] : server->handlers_.default_headers)
+      if (!res.hasHeader(k)) MHD_add_response_header(r, k.c_str(), v.c_str());
     for (const auto& [k, v] : res.headers)
       if (strcasecmp(k.c_str(), "Connection") != 0)
         MHD_add_response_header(r, k.c_str(), v.c_str());
