@@ -90,6 +90,12 @@ struct Reply {
 };
 
 // An lgpd child process.
+// A run that has ended: finished, cancelled or failed.
+inline bool runEnded(const json& run) {
+  const std::string s = run.value("status", "");
+  return s == "finished" || s == "cancelled" || s == "failed";
+}
+
 class Daemon {
  public:
   explicit Daemon(fs::path data_dir) : data_dir_(std::move(data_dir)) {}
@@ -214,13 +220,7 @@ class Daemon {
     return last;
   }
   json waitDone(const std::string& id, double timeout_s = 120) const {
-    return waitFor(
-        id,
-        [](const json& r) {
-          auto s = r.value("status", "");
-          return s == "finished" || s == "cancelled" || s == "failed";
-        },
-        timeout_s);
+    return waitFor(id, runEnded, timeout_s);
   }
 
   // fork/exec with stdout+stderr to `log_path`; no shell involved.

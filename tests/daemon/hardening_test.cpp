@@ -571,6 +571,23 @@ TEST(HardeningServe, SlowRequestIsDroppedAtItsDeadline) {
   EXPECT_EQ(d.stop(), 0);
 }
 
+// lgpd started on a fresh data dir under `tmp` with the daemon config `cfg`: its exit code
+// (it is expected to refuse the config and exit) and, in `err`, what it wrote to stderr.
+int startWithConfig(const TempDir& tmp, const json& cfg, std::string* err) {
+  const fs::path path = tmp.path() / "lgpd.json";
+  std::ofstream(path) << cfg.dump();
+  const fs::path log = tmp.path() / "lgpd.log";
+  std::error_code ec;
+  fs::remove(log, ec);
+  std::string out;
+  const int code = runProgram({LGPD_BIN, "--data-dir", (tmp.path() / "s").string(), "--config",
+                               path.string(), "--listen", "127.0.0.1:0"},
+                              &out, log, 30);
+  std::ifstream f(log);
+  err->assign(std::istreambuf_iterator<char>(f), {});
+  return code;
+}
+
 TEST(HardeningConfig, ConnectionBoundsAreValidated) {
   TempDir tmp("bounds");
   for (const auto& [cfg_json, key] :
@@ -578,19 +595,8 @@ TEST(HardeningConfig, ConnectionBoundsAreValidated) {
         std::pair{json{{"max_connections", 100}, {"max_connections_per_client", 101}},
                   "/max_connections_per_client"},
         std::pair{json{{"http_threads", 1}}, "/http_threads"}}) {
-    fs::path cfg = tmp.path() / "lgpd.json";
-    std::ofstream(cfg) << cfg_json.dump();
-    const fs::path log = tmp.path() / "bounds.log";
-    std::error_code ec;
-    fs::remove(log, ec);
-    std::string out;
-    EXPECT_EQ(runProgram({LGPD_BIN, "--data-dir", (tmp.path() / "s").string(), "--config",
-                          cfg.string(), "--listen", "127.0.0.1:0"},
-                         &out, log, 30),
-              2)
-        << cfg_json.dump();
-    std::ifstream f(log);
-    std::string err((std::istreambuf_iterator<char>(f)), {});
+    std::string err;
+    EXPECT_EQ(startWithConfig(tmp, cfg_json, &err), 2) << cfg_json.dump();
     EXPECT_NE(err.find(key), std::string::npos) << err;
   }
 }
@@ -599,18 +605,9 @@ TEST(HardeningConfig, TokenNeedsSixteenNonSpaceCharacters) {
   TempDir tmp("token");
   for (const std::string& token :
        {std::string(16, ' '), std::string("short"), std::string(" a b c d e f g h ")}) {
-    fs::path cfg = tmp.path() / "lgpd.json";
-    std::ofstream(cfg) << json{{"token", token}}.dump();
-    std::string out;
-    const fs::path log = tmp.path() / "token.log";
-    std::error_code ec;
-    fs::remove(log, ec);
-    int code = runProgram({LGPD_BIN, "--data-dir", (tmp.path() / "s").string(), "--config",
-                           cfg.string(), "--listen", "127.0.0.1:0"},
-                          &out, log, 30);
-    EXPECT_EQ(code, 2) << "token '" << token << "' was accepted";
-    std::ifstream f(log);
-    std::string err((std::istreambuf_iterator<char>(f)), {});
+    std::string err;
+    EXPECT_EQ(startWithConfig(tmp, json{{"token", token}}, &err), 2)
+        << "token '" << token << "' was accepted";
     EXPECT_NE(err.find("non-space"), std::string::npos) << err;
   }
   // A deep or duplicate-keyed daemon config is refused with the reason, not a crash.

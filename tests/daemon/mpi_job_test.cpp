@@ -464,28 +464,17 @@ TEST_F(MpirunTest, AFullDiskFailsTheRunWithTheReason) {
   std::string id = d.submit(mpiConfig(table_, 2, 1000000));
   ASSERT_FALSE(id.empty());
   json r = d.waitFor(
-      id,
-      [](const json& j) {
-        return j["checkpoint"].is_object() ||
-               j.value("status", "") != "running" && j.value("status", "") != "queued";
-      },
-      60);
+      id, [](const json& j) { return j["checkpoint"].is_object() || runEnded(j); }, 60);
   ASSERT_EQ(r.value("status", ""), "running") << r.dump() << d.log();
   ASSERT_GT(disk.fill(), 0u);
-  r = d.waitFor(
-      id,
-      [](const json& j) {
-        const std::string st = j.value("status", "");
-        return st != "running" && st != "queued";
-      },
-      90);
+  r = d.waitDone(id, 90);
   EXPECT_EQ(r.value("status", ""), "failed") << r.dump() << d.log();
   // Whichever write failed first: the store's (the launch is stopped) or a rank's.
   const std::string error = r.value("error", "");
   EXPECT_TRUE(error.find("cannot store the run's") != std::string::npos ||
               error.find("MPI launch failed") != std::string::npos)
       << error;
-  std::printf("the run's error: %s\n", r.value("error", "").substr(0, 300).c_str());
+  std::printf("the run's error: %s\n", error.substr(0, 300).c_str());
   EXPECT_EQ(d.del("/api/v1/runs/" + id).status, 200);
   EXPECT_TRUE(d.alive());
   disk.unfill();

@@ -61,11 +61,6 @@ TEST(OneDaemonPerDataDir, SecondDaemonExitsNamingTheFirstOnesPid) {
 
 // --- a full disk -------------------------------------------------------------------------
 
-bool ended(const json& r) {
-  const std::string s = r.value("status", "");
-  return s == "finished" || s == "cancelled" || s == "failed";
-}
-
 // A run that can no longer write its checkpoint is failed with the reason, not left
 // "running"; DELETE then works, and once there is room again the daemon takes new runs.
 TEST(FullDisk, RunThatCannotWriteIsFailedWithTheReason) {
@@ -79,11 +74,11 @@ TEST(FullDisk, RunThatCannotWriteIsFailedWithTheReason) {
   const std::string id = d.submit(runConfig(table, 1 << 30));
   ASSERT_FALSE(id.empty());
   json r =
-      d.waitFor(id, [](const json& run) { return run["checkpoint"].is_object() || ended(run); });
+      d.waitFor(id, [](const json& run) { return run["checkpoint"].is_object() || runEnded(run); });
   ASSERT_EQ(r.value("status", ""), "running") << r.dump();
   ASSERT_GT(disk.fill(), 0u);
 
-  r = d.waitFor(id, ended, 60);
+  r = d.waitFor(id, runEnded, 60);
   EXPECT_EQ(r.value("status", ""), "failed") << r.dump();
   const std::string error = r.value("error", "");
   EXPECT_NE(error.find("cannot store the run's"), std::string::npos) << error;
@@ -123,7 +118,7 @@ TEST(FullDisk, CancelAndDeleteWorkOnAFullDisk) {
   EXPECT_EQ(d.get("/api/v1/runs/" + queued).j().value("status", ""), "cancelled");
   c = d.post("/api/v1/runs/" + running + "/cancel", "{}");
   EXPECT_EQ(c.status, 200) << c.body;
-  r = d.waitFor(running, ended, 60);
+  r = d.waitFor(running, runEnded, 60);
   EXPECT_EQ(r.value("status", ""), "cancelled") << r.dump();
 
   for (const auto& id : {queued, running}) {
