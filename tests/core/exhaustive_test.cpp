@@ -42,6 +42,60 @@ TEST(Exhaustive, CountsOneOperatorExpressionsExactly) {
   EXPECT_LT(r->best_by_ops[1].obj.error, 1e-7);
 }
 
+TEST(Exhaustive, ATreeEqualToAnEarlierOneIsDropped) {
+  // mul and square over x, y and c: mul(x, x) and mul(y, y) are square(x) and square(y), so
+  // 5 + 2 - 2 distinct expressions (the names told them apart before: 7).
+  const Table t = table(8, [](double x, double y) { return x * y; });
+  auto r = exhaustiveSearch(config({Op::Mul, Op::Square}, 2), t);
+  ASSERT_TRUE(r) << r.error();
+  ASSERT_GE(r->enumerated.size(), 3u);
+  EXPECT_EQ(r->enumerated[1], 5u);
+  // Size 2 holds no tree equal to a size-1 one: mul(x, mul(x, c)) would be a new function,
+  // square(square(x)) too, but mul(c, square(x)) and mul(x, mul(c, x)) are one.
+  auto shallow = exhaustiveSearch(config({Op::Mul}, 2), t);
+  ASSERT_TRUE(shallow) << shallow.error();
+  // mul over x, y, c: size 1 = (c,x) (c,y) (x,x) (x,y) (y,y); size 2 = the products of three
+  // leaves with at most 2 constants: x^3, x^2 y, x y^2, y^3, c x^2, c x y, c y^2, c c x, c c y
+  // (c c x and c x are different parameter counts but one function family; they stay apart:
+  // only equal values merge).
+  EXPECT_EQ(shallow->enumerated[1], 5u);
+  EXPECT_EQ(shallow->enumerated[2], 9u);
+}
+
+TEST(Exhaustive, WithLinearScalingOneTreePerAffineClassIsFitted) {
+  // add, mul, neg over x, y, c. Size 1: add 5, mul 5, neg 2 = 12 distinct functions. Up to
+  // a f + b they are x (x + c, c x, x + x, -x), y (likewise), x + y, x^2, x y, y^2: 6 fitted.
+  const Table t = table(8, [](double x, double y) { return x * y; });
+  RunConfig c = config({Op::Add, Op::Mul, Op::Neg}, 1);
+  auto plain = exhaustiveSearch(c, t);
+  ASSERT_TRUE(plain) << plain.error();
+  EXPECT_EQ(plain->enumerated[1], 12u);
+  EXPECT_EQ(plain->screened[1], 12u);
+  c.search.linear_scaling = true;
+  auto scaled = exhaustiveSearch(c, t);
+  ASSERT_TRUE(scaled) << scaled.error();
+  EXPECT_EQ(scaled->enumerated[1], 12u);
+  EXPECT_EQ(scaled->screened[1], 6u);
+  EXPECT_LT(scaled->best_by_ops[1].obj.error, 1e-6) << scaled->best_by_ops[1].formula;
+}
+
+TEST(Exhaustive, AKinkOutsideTheBoxAtTheProbeConstantsIsNotMerged) {
+  // On x in [100, 101], min(x, c) at any probe value of c (|c| <= 16) is the constant c, yet
+  // c = 100.5 puts its kink inside the box: it must be fitted, and it fits exactly.
+  Table t = test::gridTableOf(
+      16, [](double x, double) { return std::min(x, 100.5); }, "x", "y", "f");
+  for (auto& v : t.inputs[0]) v = 100 + v;
+  for (size_t r = 0; r < t.rows(); ++r) t.outputs[0][r] = std::min(t.inputs[0][r], 100.5);
+  t.inputs.pop_back();
+  t.input_names.pop_back();
+  RunConfig c = config({Op::Min}, 1);
+  c.search.exhaustive.constants = 1;
+  auto r = exhaustiveSearch(c, t);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->enumerated[1], 1u);
+  EXPECT_LT(r->best_by_ops[1].obj.error, 1e-3) << r->best_by_ops[1].formula;
+}
+
 TEST(Exhaustive, RecoversExp2OfAQuadraticAtFourOperatorsAndNotBefore) {
   const Table t = table(16, [](double x, double y) { return std::exp2(-7 * x - 4 * y * y); });
   auto r = exhaustiveSearch(config({Op::Add, Op::Mul, Op::Mad, Op::Square, Op::Exp2}, 4), t);
@@ -82,7 +136,7 @@ TEST(Exhaustive, ATimeBudgetLeavesTheRestIncomplete) {
 
 TEST(Exhaustive, ConfigErrorsNameTheField) {
   auto parse = [](const char* text) { return parseRunConfig(nlohmann::json::parse(text), "."); };
-  auto bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"max_ops": 7}}})");
+  auto bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"max_ops": 9}}})");
   ASSERT_FALSE(bad);
   EXPECT_NE(bad.error().find("/search/exhaustive/max_ops"), std::string::npos) << bad.error();
   bad = parse(R"({"data": {"path": "t.csv"}, "search": {"exhaustive": {"ops": ["select"]}}})");

@@ -402,7 +402,7 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
 
 void parseExhaustive(const nlohmann::json& j, ExhaustiveConfig& c) {
   Obj o(j, "/search/exhaustive");
-  o.integer("max_ops", c.max_ops, 0, 6);
+  o.integer("max_ops", c.max_ops, 0, 8);
   if (o.has("ops")) {
     const auto& v = o.at("ops");
     // Empty: the program's operators (what toJson writes for the default).

@@ -14,8 +14,10 @@
 
 #include "lgp/core/formula.hpp"
 #include "lgp/core/interval.hpp"
+#include "lgp/core/rng.hpp"
 #include "lgp/eval/cost_model.hpp"
 #include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/semantics.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/pareto.hpp"
 
@@ -24,136 +26,296 @@ namespace lgp {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Expressions built per operator count before the enumeration stops growing (memory: each
-// keeps its canonical text).
-constexpr size_t kMaxPerLevel = size_t{1} << 21;
+// Expressions kept per operator count before the enumeration stops growing (memory: each
+// keeps its probe values, 48 doubles).
+constexpr size_t kMaxPerLevel = size_t{1} << 24;
+// Probe points: the corners of the table's box, some of its rows and random points in the box.
+constexpr int kProbeRows = 8;
+constexpr int kProbeRandom = 12;
+// Draws of the free constants' values: an identity that holds at both draws (and every probe
+// point) is taken to hold for every value, so the expression adds no new function.
+constexpr int kDraws = 2;
+// Candidates whose probe values are computed together (in parallel) before they are inserted
+// in order, so that the result does not depend on the thread count.
+constexpr size_t kBatch = 8192;
+
+// 128-bit fingerprint of an expression's values at the probe points.
+struct Key {
+  uint64_t a = 0, b = 0;
+  bool operator==(const Key& o) const { return a == o.a && b == o.b; }
+};
+struct KeyHash {
+  size_t operator()(const Key& k) const { return k.a ^ (k.b * 0x9E3779B97F4A7C15ull); }
+};
+
+struct KeyBuilder {
+  uint64_t a = 0x243F6A8885A308D3ull, b = 0x13198A2E03707344ull;
+  void add(uint64_t q) {
+    a = (a ^ q) * 0x100000001B3ull;
+    a ^= a >> 29;
+    b = (b + q + 0x9E3779B97F4A7C15ull) * 0xBF58476D1CE4E5B9ull;
+    b ^= b >> 31;
+  }
+  Key key() const { return {a, b}; }
+};
+
+// A value rounded to about 30 significant bits, so that two evaluation orders of one function
+// (a + b) + c and a + (b + c) agree; non-finite values and near-zeros get their own codes.
+uint64_t quantize(double v) {
+  if (std::isnan(v)) return 1;
+  if (std::isinf(v)) return v > 0 ? 2 : 3;
+  if (std::fabs(v) < 1e-12) return 0;
+  int e = 0;
+  const double m = std::frexp(v, &e);
+  auto q = static_cast<int64_t>(std::llround(m * 0x1.0p30));
+  if (q == (int64_t{1} << 30) || q == -(int64_t{1} << 30)) {
+    q /= 2;
+    ++e;
+  }
+  return (static_cast<uint64_t>(static_cast<uint32_t>(e)) << 32) ^
+         static_cast<uint64_t>(static_cast<uint32_t>(q)) ^ 0xA5A5000000000000ull;
+}
 
 // A node of an expression tree: an input, a free constant, or an operator over earlier nodes.
 struct Node {
-  int input = -1;  // >= 0: input column
+  int8_t input = -1;  // >= 0: input column
   bool constant = false;
   Op op = Op::Add;
-  std::array<int, kMaxArity> kids{-1, -1, -1, -1};
-  int ops = 0;        // operators in the tree
-  int constants = 0;  // free-constant leaves in the tree
-  std::string canon;  // canonical text
+  uint8_t ops = 0;        // operators in the tree
+  uint8_t constants = 0;  // free-constant leaves in the tree
+  // A kink whose place depends on a free constant lies outside the box at every draw (see
+  // branch()): the tree is never merged with another.
+  bool fragile = false;
+  std::array<int32_t, 3> kids{-1, -1, -1};
 };
+
+// Which side of its kink a piecewise operator, or a protected one whose guard changes the
+// function over a range of operands (sqrt, rsqrt, log, log2 and pow below zero), takes; -1 for
+// an operator without such a kink (the exp clamp at 2^126 and the division guard at 1e-20
+// are never reached by a fit).
+int branch(Op op, double a, double b) {
+  switch (op) {
+    case Op::Min:
+      return a < b;
+    case Op::Max:
+      return a > b;
+    case Op::Abs:
+      return a < 0;
+    case Op::Saturate:
+      return a <= 0 ? 0 : (a < 1 ? 1 : 2);
+    case Op::Sqrt:
+      return a > 0;
+    case Op::Rsqrt:
+    case Op::Log2:
+    case Op::Log:
+    case Op::Pow:
+      return a > static_cast<double>(kMinPos);
+    default:
+      return -1;
+  }
+}
 
 bool commutative(Op op) {
   return op == Op::Add || op == Op::Mul || op == Op::Min || op == Op::Max;
 }
 
+// The enumeration, de-duplicated by value: every tree is evaluated (double, the interpreter's
+// protected semantics) at fixed probe points, with each free constant at fixed values in
+// kDraws draws, and a tree whose values equal an earlier tree's is the same function of its
+// inputs and constants: it is dropped, the earlier one (of no more operators) stands for it as
+// an operand too. With linear scaling, trees that are affine images of an earlier one at every
+// draw (f and a f + b: the same error after scaling) are kept as operands but not fitted again.
 class Enumerator {
  public:
-  Enumerator(int inputs, std::vector<Op> ops, int max_constants)
-      : ops_(std::move(ops)), max_constants_(max_constants) {
+  Enumerator(const Table& t, std::vector<Op> ops, int max_constants, bool affine_roots, int threads)
+      : ops_(std::move(ops)),
+        max_constants_(max_constants),
+        affine_roots_(affine_roots),
+        threads_(threads) {
+    const int inputs = static_cast<int>(t.numInputs());
+    const auto domain = tableDomain(t);
+    // Probe points: corners, rows spread over the table, random points of the box.
+    std::vector<std::vector<double>> pts;
+    for (int c = 0; c < (1 << std::min(inputs, 4)); ++c) {
+      std::vector<double> p(inputs);
+      for (int i = 0; i < inputs; ++i) p[i] = (i < 4 && (c >> i & 1)) ? domain[i].hi : domain[i].lo;
+      pts.push_back(p);
+    }
+    for (int k = 0; k < kProbeRows && t.rows() > 0; ++k) {
+      const size_t r = (t.rows() - 1) * static_cast<size_t>(2 * k + 1) / (2 * kProbeRows);
+      std::vector<double> p(inputs);
+      for (int i = 0; i < inputs; ++i) p[i] = t.inputs[i][r];
+      pts.push_back(p);
+    }
+    Rng rng(0x5EED0F0E5A11ull);
+    for (int k = 0; k < kProbeRandom; ++k) {
+      std::vector<double> p(inputs);
+      for (int i = 0; i < inputs; ++i)
+        p[i] = domain[i].finite() ? rng.uniform(domain[i].lo, domain[i].hi) : rng.uniform(-1, 1);
+      pts.push_back(p);
+    }
+    points_ = static_cast<int>(pts.size());
+    width_ = points_ * kDraws;
+    // Constant values: one draw of moderate magnitudes, one over a wider range, random signs.
+    const int nc = std::max(max_constants_, 1);
+    cvals_.assign(static_cast<size_t>(kDraws) * nc, 0.0);
+    for (int d = 0; d < kDraws; ++d)
+      for (int j = 0; j < nc; ++j) {
+        const double mag = d == 0 ? rng.uniform(0.3, 1.7) : std::exp2(rng.uniform(-4, 4));
+        cvals_[d * nc + j] = rng.chance(0.5) ? mag : -mag;
+      }
     levels_.emplace_back();
     for (int i = 0; i < inputs; ++i) {
       Node n;
-      n.input = i;
-      n.canon = "x" + std::to_string(i);
-      levels_[0].push_back(add(std::move(n)));
+      n.input = static_cast<int8_t>(i);
+      std::vector<double> v(width_);
+      for (int d = 0; d < kDraws; ++d)
+        for (int p = 0; p < points_; ++p) v[d * points_ + p] = pts[p][i];
+      levels_[0].push_back(add(n, v.data()));
+      exact_.insert(keyOf(v.data()));
     }
     if (max_constants_ > 0) {
       Node n;
       n.constant = true;
       n.constants = 1;
-      n.canon = "c";
-      levels_[0].push_back(add(std::move(n)));
+      std::vector<double> v(width_);
+      for (int d = 0; d < kDraws; ++d)
+        for (int p = 0; p < points_; ++p) v[d * points_ + p] = cvals_[d * nc];
+      levels_[0].push_back(add(n, v.data()));
     }
+    fit_.emplace_back();
   }
 
   // Builds every distinct tree with `s` operators; false when the level would exceed the cap
   // or the deadline passed first.
-  bool grow(int s, std::chrono::steady_clock::time_point deadline) {
+  // `operand`: the trees may become operands of larger ones (their values are kept).
+  bool grow(int s, bool operand, std::chrono::steady_clock::time_point deadline) {
     std::vector<int> level;
-    std::unordered_set<std::string> seen;
+    std::vector<int> fit;
+    std::vector<Node> batch;
     bool capped = false;
-    auto offer = [&](Op op, std::array<int, kMaxArity> kids, int arity) {
-      if (capped) return;
+    auto flush = [&] {
+      std::vector<double> vals(batch.size() * width_);
+      std::vector<Key> keys(batch.size());
+#pragma omp parallel for schedule(static) num_threads(threads_)
+      for (size_t i = 0; i < batch.size(); ++i) {
+        evaluate(batch[i], 0, &vals[i * width_], &batch[i].fragile);
+        keys[i] = keyOf(&vals[i * width_]);
+      }
+      for (size_t i = 0; i < batch.size() && !capped; ++i) {
+        const double* v = &vals[i * width_];
+        if (!batch[i].fragile) {
+          if (!exact_.insert(keys[i]).second) continue;
+          // A function of the constants alone: a free constant does as well (not when the
+          // tree has none, as x / x: replacing it would add a constant).
+          if (batch[i].constants > 0 && constantOverPoints(v)) continue;
+        }
+        if (level.size() >= kMaxPerLevel) {
+          capped = true;
+          break;
+        }
+        level.push_back(add(batch[i], operand ? v : nullptr));
+        // The first of its function (with linear scaling, up to an affine map) is fitted.
+        if (batch[i].fragile || roots_.insert(affine_roots_ ? affineKeyOf(v) : keyOf(v)).second)
+          fit.push_back(level.back());
+      }
+      batch.clear();
+      if (past(deadline)) capped = true;
+    };
+    auto offer = [&](Op op, std::array<int32_t, 3> kids, int ar) {
       Node n;
       n.op = op;
       n.kids = kids;
       n.ops = 1;
       bool all_const = true;
-      for (int a = 0; a < arity; ++a) {
+      for (int a = 0; a < ar; ++a) {
         const Node& k = nodes_[kids[a]];
-        n.ops += k.ops;
-        n.constants += k.constants;
-        all_const = all_const && k.constants > 0 && k.input < 0 && k.ops == 0;
+        n.ops = static_cast<uint8_t>(n.ops + k.ops);
+        n.constants = static_cast<uint8_t>(n.constants + k.constants);
+        all_const = all_const && k.constant;
       }
       if (all_const || n.constants > max_constants_) return;
-      const Node& a = nodes_[kids[0]];
-      if (arity >= 2) {
-        const Node& b = nodes_[kids[1]];
-        // One order of a commutative pair (mad's product too).
-        if ((commutative(op) || op == Op::Mad) && b.canon < a.canon) return;
+      if (ar >= 2) {
+        // One order of a commutative pair (mad's product too): ids order the trees.
+        if ((commutative(op) || op == Op::Mad) && kids[1] < kids[0]) return;
         // x - x, x / x, min(x, x), max(x, x): a constant or x itself (without free constants,
         // whose two copies are independent parameters).
         if ((op == Op::Sub || op == Op::Div || op == Op::Min || op == Op::Max) &&
-            a.constants == 0 && a.canon == b.canon)
+            kids[0] == kids[1] && nodes_[kids[0]].constants == 0)
           return;
       }
-      n.canon = std::string(opName(op)) + "(";
-      for (int i = 0; i < arity; ++i) n.canon += (i ? "," : "") + nodes_[kids[i]].canon;
-      n.canon += ")";
-      if (!seen.insert(n.canon).second) return;
-      if (level.size() >= kMaxPerLevel || ((++offers_ & 4095) == 0 && past(deadline))) {
-        capped = true;
-        return;
-      }
-      level.push_back(add(std::move(n)));
+      batch.push_back(n);
+      if (batch.size() >= kBatch) flush();
     };
     for (Op op : ops_) {
       const int ar = arity(op);
       if (ar == 1) {
-        for (int a : levels_[s - 1]) offer(op, {a, -1, -1, -1}, 1);
+        for (int a : levels_[s - 1]) {
+          offer(op, {a, -1, -1}, 1);
+          if (capped) break;
+        }
       } else if (ar == 2) {
         for (int i = 0; i <= s - 1 && !capped; ++i)
           for (int a : levels_[i]) {
-            for (int b : levels_[s - 1 - i]) offer(op, {a, b, -1, -1}, 2);
-            if (capped || (++rows_ & 63) == 0 && past(deadline)) break;
+            for (int b : levels_[s - 1 - i]) {
+              offer(op, {a, b, -1}, 2);
+              if (capped) break;
+            }
+            if (capped) break;
           }
       } else if (ar == 3) {
         for (int i = 0; i <= s - 1 && !capped; ++i)
           for (int j = 0; i + j <= s - 1 && !capped; ++j)
             for (int a : levels_[i]) {
               for (int b : levels_[j]) {
-                for (int c : levels_[s - 1 - i - j]) offer(op, {a, b, c, -1}, 3);
+                for (int c : levels_[s - 1 - i - j]) {
+                  offer(op, {a, b, c}, 3);
+                  if (capped) break;
+                }
                 if (capped) break;
               }
-              if (capped || (++rows_ & 63) == 0 && past(deadline)) break;
+              if (capped) break;
             }
       }
       // select (arity 4) is left out: piecewise, and four operands multiply the count.
-      if (capped || past(deadline)) return false;
+      if (capped) return false;
     }
+    flush();
     if (capped) return false;
     levels_.push_back(std::move(level));
+    fit_.push_back(std::move(fit));
     return true;
   }
 
-  const std::vector<int>& level(int s) const { return levels_[s]; }
+  const std::vector<int>& level(int s) const {
+    return levels_[s];
+  }
+
+  // The trees of size s to fit: the first of each function (with linear scaling, of each
+  // function up to an affine map).
+  const std::vector<int>& toFit(int s) const {
+    return fit_[s];
+  }
 
   // The tree as a one-output program: post-order, sub-trees without free constants shared
   // (common-subexpression elimination), each free constant its own slot.
   Program program(int root, int num_constants) const {
     Program p;
-    p.constants.assign(std::max(num_constants, nodes_[root].constants), 1.0f);
-    std::unordered_map<std::string, int> shared;
+    p.constants.assign(std::max<int>(num_constants, nodes_[root].constants), 1.0f);
+    std::unordered_map<int, int> shared;
     int next_const = 0;
     std::function<Operand(int)> emit = [&](int id) -> Operand {
       const Node& n = nodes_[id];
       if (n.input >= 0) return inputOperand(n.input);
       if (n.constant) return constOperand(next_const++);
       if (n.constants == 0)
-        if (auto it = shared.find(n.canon); it != shared.end()) return regOperand(it->second);
+        if (auto it = shared.find(id); it != shared.end()) return regOperand(it->second);
       Instr ins;
       ins.op = n.op;
       for (int a = 0; a < arity(n.op); ++a) ins.args[a] = emit(n.kids[a]);
       p.code.push_back(ins);
       const int reg = static_cast<int>(p.code.size()) - 1;
-      if (n.constants == 0) shared.emplace(n.canon, reg);
+      if (n.constants == 0) shared.emplace(id, reg);
       return regOperand(reg);
     };
     emit(root);
@@ -162,18 +324,117 @@ class Enumerator {
   }
 
  private:
-  int add(Node n) {
-    nodes_.push_back(std::move(n));
+  // A tree that is never an operand keeps no values (the largest size: most of the memory).
+  int add(const Node& n, const double* v) {
+    nodes_.push_back(n);
+    if (v) {
+      if (vals_.size() < nodes_.size() * width_) vals_.resize(nodes_.size() * width_);
+      std::copy_n(v, width_, &vals_[(nodes_.size() - 1) * width_]);
+    }
     return static_cast<int>(nodes_.size()) - 1;
   }
   static bool past(std::chrono::steady_clock::time_point t) {
     return std::chrono::steady_clock::now() > t;
   }
+  // The values of tree `n` with its first free constant in slot `offset`; with `fragile`,
+  // also whether the tree is fragile (a fragile operand, or a kink of its operator whose place
+  // depends on a free constant and that no probe point crosses at any draw).
+  void evaluate(const Node& n, int offset, double* out, bool* fragile = nullptr) const {
+    const int nc = std::max(max_constants_, 1);
+    if (n.constant) {
+      for (int d = 0; d < kDraws; ++d)
+        for (int p = 0; p < points_; ++p) out[d * points_ + p] = cvals_[d * nc + offset];
+      return;
+    }
+    // (An input has no free constant: its stored values serve at every offset.)
+    const int ar = arity(n.op);
+    std::array<const double*, 3> arg{};
+    std::array<std::vector<double>, 3> tmp;
+    int off = offset;
+    bool kids_fragile = false;
+    for (int a = 0; a < ar; ++a) {
+      const Node& k = nodes_[n.kids[a]];
+      kids_fragile = kids_fragile || k.fragile;
+      if (off == 0 || k.constants == 0) {
+        arg[a] = &vals_[static_cast<size_t>(n.kids[a]) * width_];
+      } else {
+        tmp[a].resize(width_);
+        evaluate(k, off, tmp[a].data());
+        arg[a] = tmp[a].data();
+      }
+      off += k.constants;
+    }
+    for (int w = 0; w < width_; ++w)
+      out[w] = sem::applyDynamic<double>(n.op, arg[0][w], ar > 1 ? arg[1][w] : 0.0,
+                                         ar > 2 ? arg[2][w] : 0.0, 0.0);
+    if (!fragile) return;
+    *fragile = kids_fragile;
+    if (kids_fragile || n.constants == 0 || branch(n.op, 0, 0) < 0) return;
+    bool crossed = false;
+    for (int d = 0; d < kDraws && !crossed; ++d) {
+      const int first = branch(n.op, arg[0][d * points_], ar > 1 ? arg[1][d * points_] : 0.0);
+      for (int p = 1; p < points_ && !crossed; ++p)
+        crossed =
+            branch(n.op, arg[0][d * points_ + p], ar > 1 ? arg[1][d * points_ + p] : 0.0) != first;
+    }
+    *fragile = !crossed;
+  }
+  Key keyOf(const double* v) const {
+    KeyBuilder k;
+    for (int w = 0; w < width_; ++w) k.add(quantize(v[w]));
+    return k.key();
+  }
+  // Per draw, the values up to an affine map: centred, scaled to unit spread, sign fixed by
+  // the first value off the mean. A draw with non-finite values keeps them as they are.
+  Key affineKeyOf(const double* v) const {
+    KeyBuilder k;
+    for (int d = 0; d < kDraws; ++d) {
+      const double* x = v + d * points_;
+      double mean = 0;
+      bool finite = true;
+      for (int p = 0; p < points_; ++p) {
+        finite = finite && std::isfinite(x[p]);
+        mean += x[p];
+      }
+      if (!finite) {
+        for (int p = 0; p < points_; ++p) k.add(quantize(x[p]));
+        continue;
+      }
+      mean /= points_;
+      double var = 0;
+      for (int p = 0; p < points_; ++p) var += (x[p] - mean) * (x[p] - mean);
+      const double sd = std::sqrt(var / points_);
+      if (!(sd > 1e-9 * (1 + std::fabs(mean)))) {
+        k.add(4);  // constant over the points
+        continue;
+      }
+      double sign = 0;
+      for (int p = 0; p < points_ && sign == 0; ++p) {
+        const double z = (x[p] - mean) / sd;
+        if (std::fabs(z) > 1e-6) sign = z > 0 ? 1 : -1;
+      }
+      for (int p = 0; p < points_; ++p)
+        k.add(static_cast<uint64_t>(std::llround(sign * (x[p] - mean) / sd * 0x1.0p20)));
+    }
+    return k.key();
+  }
+  bool constantOverPoints(const double* v) const {
+    for (int d = 0; d < kDraws; ++d)
+      for (int p = 1; p < points_; ++p)
+        if (quantize(v[d * points_ + p]) != quantize(v[d * points_])) return false;
+    return true;
+  }
+
   std::vector<Op> ops_;
   int max_constants_;
-  uint64_t offers_ = 0, rows_ = 0;
+  bool affine_roots_;
+  int threads_;
+  int points_ = 0, width_ = 0;
+  std::vector<double> cvals_;  // [draw][slot]
   std::vector<Node> nodes_;
-  std::vector<std::vector<int>> levels_;
+  std::vector<double> vals_;  // [node][draw][point]
+  std::vector<std::vector<int>> levels_, fit_;
+  std::unordered_set<Key, KeyHash> exact_, roots_;
 };
 
 // The rows the screening fit uses: every stride-th row.
@@ -254,6 +515,8 @@ nlohmann::json ExhaustiveResult::toJson(const RunConfig& cfg, const Table& t) co
     const auto& m = best_by_ops[k];
     best.push_back({{"max_ops", k},
                     {"enumerated", k < enumerated.size() ? enumerated[k] : 0},
+                    {"screened", k < screened.size() ? screened[k] : 0},
+                    {"seconds", k < level_seconds.size() ? level_seconds[k] : 0.0},
                     {"complete", static_cast<int>(k) <= complete_ops},
                     {"error", std::isfinite(m.obj.error) ? nlohmann::json(m.obj.error)
                                                          : nlohmann::json(nullptr)},
@@ -307,25 +570,32 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
 
   ExhaustiveResult res;
   res.enumerated.push_back(0);
+  res.screened.push_back(0);
+  res.level_seconds.push_back(0);
   ExhaustiveMember none;
   res.best_by_ops.push_back(none);
   std::vector<ExhaustiveMember> all;
-  Enumerator en(static_cast<int>(t.numInputs()), ops, x.constants);
+  Enumerator en(t, ops, x.constants, err.linear_scaling, threads);
   for (int s = 1; s <= x.max_ops; ++s) {
-    if (seconds() > x.seconds || !en.grow(s, deadline)) break;
-    const auto& level = en.level(s);
-    res.enumerated.push_back(level.size());
+    if (seconds() > x.seconds || !en.grow(s, s < x.max_ops, deadline)) break;
+    const std::vector<int>& level = en.toFit(s);
+    res.enumerated.push_back(en.level(s).size());
+    res.screened.push_back(level.size());
     // Screening: every expression of this size, on the row subset.
+    // One start, few iterations: a ranking, not the answer (the kept ones are refitted). The
+    // programs are not kept (millions at 5 operators): the kept ones are screened again.
+    auto screened = [&](int thread, size_t i, Program& p) {
+      p = en.program(level[i], num_constants);
+      return screen.fit(thread, p, 8, false);
+    };
     std::vector<double> screen_err(level.size(), kInf);
-    std::vector<Program> progs(level.size());
     std::atomic<bool> out_of_time{false};
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
     for (size_t i = 0; i < level.size(); ++i) {
       if (out_of_time.load(std::memory_order_relaxed)) continue;
       if ((i & 255) == 0 && seconds() > x.seconds) out_of_time = true;
-      progs[i] = en.program(level[i], num_constants);
-      // One start, few iterations: a ranking, not the answer (the kept ones are refitted).
-      screen_err[i] = screen.fit(omp_get_thread_num(), progs[i], 8, false);
+      Program p;
+      screen_err[i] = screened(omp_get_thread_num(), i, p);
     }
     if (out_of_time) break;
     // The best `keep` go on to the whole table.
@@ -339,7 +609,7 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
     for (size_t j = 0; j < keep; ++j) {
       const int th = omp_get_thread_num();
       ExhaustiveMember& m = fitted[j];
-      m.program = progs[order[j]];
+      screened(th, order[j], m.program);
       m.ops = s;
       // From the screened constants first, then as on the subset.
       Program from_screen = m.program;
@@ -371,6 +641,7 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
     }
     res.best_by_ops.push_back(best);
     res.complete_ops = s;
+    res.level_seconds.push_back(seconds());
   }
   // The non-dominated ones (sorted by cost, then error).
   std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) {

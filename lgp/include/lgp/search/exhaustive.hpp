@@ -7,14 +7,23 @@
 // local: Levenberg-Marquardt, then the run's error on the whole table).
 //
 // Enumeration. Expression trees by operator count s: leaves (each input, and a free constant
-// `c`) for s = 0; an operator over trees whose operator counts sum to s - 1. Pruned as
-// redundant within the grammar (each prune keeps an equivalent expression of no more
-// operators): an operator whose operands are all constants (a constant), the second
-// commutative operand ordered before the first (add, mul, min, max, mad's product), min/max/
-// sub/div of two equal operands. Distinct trees are told apart by a canonical text; a tree
+// `c`) for s = 0; an operator over trees whose operator counts sum to s - 1. Each tree is
+// evaluated at probe points (the table's box: corners, some rows, random points) with its free
+// constants at two fixed draws of values; a tree whose values match an earlier tree's is the
+// same function of its inputs and constants and is dropped (the earlier one, of no more
+// operators, stands for it as an operand too). Also pruned: an operator whose operands are all
+// constants, the second commutative operand ordered before the first (add, mul, min, max,
+// mad's product), and a tree with free constants that is constant over the points (a free
+// constant does as well). With linear scaling, a tree that is an affine image of an earlier
+// one (a f + b: the same error once scaled) is kept as an operand but not fitted again. A tree
 // becomes a program by common-subexpression elimination, so a repeated sub-tree costs one
 // opcode. Screening: constants fitted on a row subset (from +1, 8 iterations), the best `keep`
 // per operator count go on to the fit on every row (from the screened constants, +1 and -1).
+//
+// Equality at the probe points stands for equality everywhere: two different functions that
+// agree at every probe point and both draws of constants (to about 9 digits) would be taken as
+// one. For the analytic operators that needs a coincidence; for piecewise ones (min, max, abs,
+// saturate) a kink outside the box at both draws.
 #pragma once
 
 #include <cstdint>
@@ -41,8 +50,11 @@ struct ExhaustiveResult {
   std::vector<ExhaustiveMember> best_by_ops;  // [k]: the lowest error with <= k operators
   std::vector<ExhaustiveMember> front;        // non-dominated in (error, cost, discontinuity)
   std::vector<uint64_t> enumerated;           // [k]: distinct expressions with exactly k ops
-  uint64_t fitted = 0;                        // constant fits on every row
-  int complete_ops = -1;  // every expression of <= this many operators was fitted
+  std::vector<uint64_t> screened;     // [k]: of those, the ones fitted (with linear scaling, one
+                                      // per function up to an affine map)
+  std::vector<double> level_seconds;  // [k]: seconds from the start until size k was done
+  uint64_t fitted = 0;                // constant fits on every row
+  int complete_ops = -1;              // every expression of <= this many operators was fitted
   double seconds = 0;
   // The certificate for the front JSON ("exhaustive"): grammar, counts, best per k.
   nlohmann::json toJson(const RunConfig& cfg, const Table& t) const;
