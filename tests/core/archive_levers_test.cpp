@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 #include "lgp/search/migration.hpp"
@@ -170,6 +171,42 @@ TEST(IslandDealing, EachRefinedMemberJoinsOneIslandAndByCostKeepsThemApart) {
     // cost, island k gets the k-th stretch of the front.
     EXPECT_EQ(costSlices(costs), deal == IslandDeal::ByCost) << toString(deal);
   }
+}
+
+Objectives objective(double error, double cost) {
+  Objectives o;
+  o.error = error;
+  o.cost = cost;
+  return o;
+}
+
+TEST(StratifiedSurvivors, OffKeepsTheNsgaOrder) {
+  const std::vector<Objectives> pool = {objective(0.1, 1), objective(0.05, 2),
+                                        objective(0.045, 10)};
+  EXPECT_EQ(stratifiedSurvivors(pool, {0, 1, 2}, 2, 0), (std::vector<int>{0, 1}));
+}
+
+TEST(StratifiedSurvivors, TheBestOfAnExpensiveSliceSurvivesWhereNsgaDropsIt) {
+  // (0.045, 10) is dominated by (0.04, 3): NSGA-II order puts it last and a survival of 3
+  // drops it; with two cost slices it is the best of the upper one.
+  const std::vector<Objectives> pool = {objective(0.1, 1), objective(0.05, 2), objective(0.04, 3),
+                                        objective(0.045, 10)};
+  const std::vector<int> order = {0, 1, 2, 3};
+  EXPECT_EQ(stratifiedSurvivors(pool, order, 3, 0), (std::vector<int>{0, 1, 2}));
+  EXPECT_EQ(stratifiedSurvivors(pool, order, 3, 2), (std::vector<int>{2, 3, 0}));
+}
+
+TEST(StratifiedSurvivors, DuplicatesAndNonFiniteMembersAreNotReserved) {
+  // One slice and keep 8: the 2 lowest-error distinct finite members are reserved. The NaN
+  // member would sort anywhere; (0.045, 10) twice counts once.
+  std::vector<Objectives> pool = {
+      objective(0.1, 1),  objective(0.05, 2),  objective(0.045, 10),        objective(0.045, 10),
+      objective(0.06, 9), objective(0.2, 9.5), objective(std::nan(""), 10), objective(0.3, 5)};
+  const std::vector<int> order = {0, 1, 4, 5, 7, 2, 3, 6};
+  EXPECT_EQ(stratifiedSurvivors(pool, order, 8, 1), (std::vector<int>{2, 1, 0, 4, 5, 7, 3, 6}));
+  // keep is capped at the pool, and a short keep takes the reserved ones first.
+  EXPECT_EQ(stratifiedSurvivors(pool, order, 20, 1).size(), 8u);
+  EXPECT_EQ(stratifiedSurvivors(pool, order, 3, 1), (std::vector<int>{2, 0, 1}));
 }
 
 }  // namespace

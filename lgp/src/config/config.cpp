@@ -433,6 +433,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   o.integer("threads", s.threads, 0, 4096);
   o.integer("tournament_size", s.tournament_size, 1, 64);
   o.number("error_bias", s.error_bias, 0, 1);
+  o.integer("cost_strata", s.cost_strata, 0, 1024);
   o.boolean("linear_scaling", s.linear_scaling);
   o.boolean("seed_references", s.seed_references);
   if (o.has("multi_output")) parseMultiOutput(o.at("multi_output"), s.multi_output);
@@ -715,6 +716,7 @@ nlohmann::json toJson(const RunConfig& c) {
             {"threads", s.threads},
             {"tournament_size", s.tournament_size},
             {"error_bias", s.error_bias},
+            {"cost_strata", s.cost_strata},
             {"linear_scaling", s.linear_scaling},
             {"seed_references", s.seed_references},
             {"multi_output",

@@ -237,4 +237,51 @@ std::vector<int> refineQueue(const std::vector<ArchiveMember>& members, int max,
   return todo;
 }
 
+std::vector<int> stratifiedSurvivors(const std::vector<Objectives>& pool,
+                                     const std::vector<int>& order, int keep, int strata) {
+  keep = std::min(keep, static_cast<int>(order.size()));
+  if (strata <= 0) return {order.begin(), order.begin() + keep};
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const int n = static_cast<int>(pool.size());
+  double lo = kInf, hi = -kInf;
+  for (const auto& o : pool)
+    if (o.finite()) {
+      lo = std::min(lo, o.cost);
+      hi = std::max(hi, o.cost);
+    }
+  std::vector<uint8_t> taken(n, 0);
+  std::vector<int> out;
+  out.reserve(keep);
+  if (lo < hi) {
+    const int per = std::max(1, keep / (4 * strata));
+    std::vector<std::vector<int>> slices(strata);
+    for (int i = 0; i < n; ++i)
+      if (pool[i].finite())
+        slices[std::min(strata - 1, static_cast<int>((pool[i].cost - lo) / (hi - lo) * strata))]
+            .push_back(i);
+    for (auto& slice : slices) {
+      std::stable_sort(slice.begin(), slice.end(),
+                       [&](int a, int b) { return pool[a].error < pool[b].error; });
+      int got = 0;
+      const Objectives* last = nullptr;
+      for (int i : slice) {
+        if (got == per || static_cast<int>(out.size()) == keep) break;
+        const Objectives& o = pool[i];
+        if (last && o.error == last->error && o.cost == last->cost &&
+            o.discontinuity == last->discontinuity)
+          continue;
+        out.push_back(i);
+        taken[i] = 1;
+        last = &o;
+        ++got;
+      }
+    }
+  }
+  for (int i : order) {
+    if (static_cast<int>(out.size()) == keep) break;
+    if (!taken[i]) out.push_back(i);
+  }
+  return out;
+}
+
 }  // namespace lgp

@@ -279,7 +279,7 @@ void Search::rankIsland(Island& isl) {
   }
 }
 
-void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) {
+void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) const {
   isl.pop = std::move(pool);
   rankIsland(isl);
   const int n = static_cast<int>(isl.pop.size());
@@ -290,6 +290,10 @@ void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) {
     return isl.crowd[a] > isl.crowd[b];
   });
   keep = std::min(n, keep);
+  std::vector<Objectives> objs;
+  objs.reserve(n);
+  for (const auto& ind : isl.pop) objs.push_back(ind.obj);
+  const std::vector<int> chosen = stratifiedSurvivors(objs, order, keep, cfg_.search.cost_strata);
   // Survivors keep the rank and crowding of the pool's ranking, as in NSGA-II (Deb et al.
   // 2002): tournaments compare them directly, so no second sort is needed.
   std::vector<Individual> next;
@@ -298,10 +302,10 @@ void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) {
   next.reserve(keep);
   rank.reserve(keep);
   crowd.reserve(keep);
-  for (int k = 0; k < keep; ++k) {
-    next.push_back(std::move(isl.pop[order[k]]));
-    rank.push_back(isl.rank[order[k]]);
-    crowd.push_back(isl.crowd[order[k]]);
+  for (int i : chosen) {
+    next.push_back(std::move(isl.pop[i]));
+    rank.push_back(isl.rank[i]);
+    crowd.push_back(isl.crowd[i]);
   }
   isl.pop = std::move(next);
   isl.rank = std::move(rank);

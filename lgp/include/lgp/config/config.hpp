@@ -158,7 +158,7 @@ struct IslandConfig {
 // Exhaustive enumeration of small expressions before the search (search/exhaustive.hpp): the
 // results seed the islands and the front JSON gets their certificate ("exhaustive").
 struct ExhaustiveConfig {
-  int max_ops = 0;        // operators per expression, 1..6; 0 = off
+  int max_ops = 0;        // operators per expression, 1..8; 0 = off
   std::vector<Op> ops;    // operators (arity <= 3); empty = program.ops
   int constants = 2;      // free constants per expression, 0..8
   double seconds = 60;    // budget; sizes not finished by then are reported incomplete
@@ -171,12 +171,17 @@ struct SearchConfig {
   int generations = 100;  // budget; 0 = unlimited (then another budget must be set)
   // Budget in program evaluations (a Jacobian pass over n constants counts 1 + n); 0 = none.
   uint64_t max_evaluations = 0;
-  double wall_time_s = 0;        // budget in seconds; 0 = unlimited
-  uint64_t seed = 1;             // same seed + config + threads => same front
-  int threads = 0;               // OpenMP threads; 0 = all cores
-  int tournament_size = 2;       // NSGA-II binary tournament by default
-  double error_bias = 0.0;       // share of tournaments decided by error alone, not (rank,
-                                 // crowding): steers the search to the accurate end
+  double wall_time_s = 0;   // budget in seconds; 0 = unlimited
+  uint64_t seed = 1;        // same seed + config + threads => same front
+  int threads = 0;          // OpenMP threads; 0 = all cores
+  int tournament_size = 2;  // NSGA-II binary tournament by default
+  double error_bias = 0.0;  // share of tournaments decided by error alone, not (rank,
+                            // crowding): steers the search to the accurate end
+  // Survival stratified by cost: the pool's cost range is cut into this many equal slices, and
+  // a quarter of the survivors are the lowest-error distinct members of each slice, whatever
+  // their Pareto rank (0 = off: plain NSGA-II survival). Keeps large programs alive where
+  // they are dominated by cheap ones of about the same error.
+  int cost_strata = 0;
   bool linear_scaling = false;   // fit each output as a*f + b with the closed-form a, b
                                  // (Keijzer; Operon); the front's programs include the mad
   bool seed_references = false;  // start from the config's reference formulas (those that fit

@@ -85,4 +85,12 @@ enum class ArchiveRefineOrder : uint8_t {
 std::vector<int> refineQueue(const std::vector<ArchiveMember>& members, int max,
                              ArchiveRefineOrder order);
 
+// Survival stratified by cost (search.cost_strata): the indices of `keep` survivors of a pool
+// of objective vectors. The finite members' cost range is cut into `strata` equal slices; the
+// lowest-error members of each slice (keep / (4 strata), at least 1; a member equal in every
+// objective to the one kept before it is skipped) survive first, then the rest in `order` (the
+// pool in NSGA-II order). strata <= 0 keeps the first `keep` of `order`.
+std::vector<int> stratifiedSurvivors(const std::vector<Objectives>& pool,
+                                     const std::vector<int>& order, int keep, int strata);
+
 }  // namespace lgp

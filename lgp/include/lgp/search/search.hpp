@@ -223,8 +223,9 @@ class Search {
   Objectives score(Scorer& s, const Program& p) const;
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
   void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full);
-  // Replaces the island's population by the best `keep` of pool (NSGA-II elitism).
-  static void survive(Island& isl, std::vector<Individual>& pool, int keep);
+  // Replaces the island's population by the best `keep` of pool (NSGA-II elitism, with
+  // search.cost_strata the best of each cost slice first).
+  void survive(Island& isl, std::vector<Individual>& pool, int keep) const;
   static void rankIsland(Island& isl);
   int tournament(const Island& isl, Rng& rng) const;
   int islandSize(int k) const;  // population share of global island k
