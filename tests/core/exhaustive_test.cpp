@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "lgp/config/config.hpp"
+#include "lgp/io/result.hpp"
 #include "lgp/search/exhaustive.hpp"
 #include "test_tables.hpp"
 
@@ -116,6 +117,24 @@ TEST(Exhaustive, RecoversExp2OfAQuadraticAtFourOperatorsAndNotBefore) {
   ASSERT_EQ(j["best"].size(), 4u);
   EXPECT_EQ(j["best"][3]["max_ops"], 4);
   EXPECT_TRUE(j["best"][3]["complete"].get<bool>());
+}
+
+TEST(Exhaustive, TheFrontTableStatesTheCountsPerSize) {
+  const Table t = table(8, [](double x, double y) { return x * y; });
+  RunConfig c = config({Op::Add, Op::Mul, Op::Neg}, 1);
+  c.search.linear_scaling = true;
+  auto r = exhaustiveSearch(c, t);
+  ASSERT_TRUE(r) << r.error();
+  const nlohmann::json front = {{"table", {{"inputs", {"x", "y"}}, {"outputs", {"f"}}}},
+                                {"members", nlohmann::json::array()},
+                                {"exhaustive", r->toJson(c, t)}};
+  const std::string text = formatFrontTable(front);
+  EXPECT_NE(text.find("<= 1 ops: error"), std::string::npos) << text;
+  EXPECT_NE(text.find("[12 distinct, 6 fitted]"), std::string::npos) << text;
+  // A front written before the fitted count was recorded prints the distinct count alone.
+  nlohmann::json old = front;
+  old["exhaustive"]["best"][0].erase("screened");
+  EXPECT_NE(formatFrontTable(old).find("[12 distinct]"), std::string::npos);
 }
 
 TEST(Exhaustive, ATimeBudgetLeavesTheRestIncomplete) {

@@ -458,7 +458,17 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
       std::snprintf(buf, sizeof buf, "  <= %d ops: error %s%s  ", b["max_ops"].get<int>(),
                     e.is_number() ? fmt(e.get<double>()).c_str() : "-",
                     b.value("complete", false) ? "" : " (incomplete)");
-      os << buf << formula << "\n";
+      os << buf << formula;
+      // How many expressions of exactly that size were distinct, and fitted (older fronts
+      // record only the first).
+      const auto n = b.value("enumerated", nlohmann::json()),
+                 m = b.value("screened", nlohmann::json());
+      if (n.is_number_unsigned()) {
+        os << "  [" << n.get<uint64_t>() << " distinct";
+        if (m.is_number_unsigned()) os << ", " << m.get<uint64_t>() << " fitted";
+        os << "]";
+      }
+      os << "\n";
     }
   }
   return os.str();
