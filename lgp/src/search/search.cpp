@@ -10,6 +10,7 @@
 
 #include "lgp/core/formula.hpp"
 #include "lgp/core/variation.hpp"
+#include "lgp/io/checkpoint.hpp"
 #include "lgp/search/differential_evolution.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/nelder_mead.hpp"
@@ -19,27 +20,6 @@ namespace lgp {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-uint64_t fnv1a(const void* data, size_t n, uint64_t h = 1469598103934665603ull) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  return h;
-}
-
-nlohmann::json objToJson(const Objectives& o) {
-  // JSON has no infinity: a non-finite error is stored as null.
-  return nlohmann::json::array(
-      {o.finite() ? nlohmann::json(o.error) : nlohmann::json(nullptr), o.cost, o.discontinuity});
-}
-
-Expected<Objectives> objFromJson(const nlohmann::json& j) {
-  if (!j.is_array() || j.size() != 3 || !j[1].is_number() || !j[2].is_number())
-    return Status::error("bad objectives");
-  Objectives o;
-  o.error = j[0].is_number() ? j[0].get<double>() : kInf;
-  o.cost = j[1].get<double>();
-  o.discontinuity = j[2].get<double>();
-  return o;
-}
 }  // namespace
 
 Expected<Table> loadTableFile(const DataConfig& data, const std::filesystem::path& base_dir) {
@@ -875,207 +855,12 @@ Expected<Program> fitToShape(const Program& p, const ProgramShape& shape) {
   return q;
 }
 
-std::string Search::configDigest() const {
-  nlohmann::json c = toJson(cfg_);
-  c.erase("output");  // where results go does not change the search
-  c.erase("mpi");     // nor how ranks exchange migrants: a checkpoint resumes either way
-  c["search"].erase("threads");
-  c["search"].erase("generations");  // budgets may be extended on resume
-  c["search"].erase("max_evaluations");
-  c["search"].erase("wall_time_s");
-  const std::string s = c.dump();
-  uint64_t h = fnv1a(s.data(), s.size());
-  for (const auto& col : table_.inputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
-  for (const auto& col : table_.outputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
-  h = fnv1a(table_.weights.data(), table_.weights.size() * sizeof(double), h);
-  char buf[17];
-  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
-
 nlohmann::json Search::checkpoint() const {
-  nlohmann::json islands = nlohmann::json::array();
-  for (const auto& isl : islands_) {
-    nlohmann::json pop = nlohmann::json::array();
-    for (const auto& ind : isl.pop)
-      pop.push_back({{"program", toJson(ind.program)},
-                     {"obj", objToJson(ind.obj)},
-                     {"refined", ind.refined}});
-    // Ranks and crowding come from the last survival's pool (see survive()), which a resumed
-    // run cannot recompute: they are stored. JSON has no infinity: boundary points are null.
-    nlohmann::json crowd = nlohmann::json::array();
-    for (double c : isl.crowd) crowd.push_back(std::isfinite(c) ? nlohmann::json(c) : nullptr);
-    islands.push_back({{"population", pop},
-                       {"rank", isl.rank},
-                       {"crowd", crowd},
-                       {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
-                       {"stagnant", isl.stagnant}});
-  }
-  nlohmann::json arch = nlohmann::json::array();
-  for (const auto& m : archive_.members())
-    arch.push_back(
-        {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
-  const int total = island_total_ > 0 ? island_total_ : static_cast<int>(islands_.size());
-  return {
-      {"format", "lgp-checkpoint/2"},
-      {"config_digest", configDigest()},
-      {"initialized", initialized_},
-      {"generation", generation_},
-      {"evaluations", evaluations_},
-      {"elapsed_s", elapsed()},
-      {"migrants", migrants_before_ + (transport_ ? transport_->sent() : 0)},
-      {"remote_migrants", remote_migrants_before_ + (transport_ ? transport_->sentRemote() : 0)},
-      {"restarts", restarts_},
-      {"ranks", ranks_},
-      {"island_first", island_first_},
-      {"island_total", total},
-      {"islands", islands},
-      {"archive", arch}};
+  return checkpointToJson(*this);
 }
 
-Status Search::restore(const nlohmann::json& st, bool take_counters) {
-  try {
-    if (!st.is_object() || st.value("format", "") != "lgp-checkpoint/2")
-      return Status::error("checkpoint: unknown format");
-    if (st.at("config_digest").get<std::string>() != configDigest())
-      return Status::error("checkpoint: made with a different config or table");
-    const auto& jislands = st.at("islands");
-    const int held = static_cast<int>(jislands.size());
-    const int ck_first = st.value("island_first", 0);
-    const int ck_total = st.value("island_total", held);
-    // Which of the checkpoint's islands this search takes: all of them, or its range.
-    int take_first = 0, take_count = held;
-    if (range_set_) {
-      if (ck_total != island_total_)
-        return Status::error("checkpoint: made with " + std::to_string(ck_total) +
-                             " islands, this run has " + std::to_string(island_total_));
-      take_first = island_first_ - ck_first;
-      take_count = static_cast<int>(islands_.size());
-      if (take_first < 0 || take_first + take_count > held)
-        return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
-                             std::to_string(ck_first + held - 1) + ", not this rank's " +
-                             std::to_string(island_first_) + ".." +
-                             std::to_string(island_first_ + take_count - 1));
-    } else if (ck_first != 0 || ck_total != held) {
-      return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
-                           std::to_string(ck_first + held - 1) + " of " + std::to_string(ck_total) +
-                           " (one rank of an MPI run); resume from the run's combined checkpoint");
-    }
-    std::vector<Island> islands;
-    for (int k = take_first; k < take_first + take_count; ++k) {
-      const auto& ji = jislands.at(static_cast<size_t>(k));
-      Island isl;
-      for (const auto& j : ji.at("population")) {
-        auto p = programFromJson(j.at("program"), shape_);
-        if (!p) return Status::error("checkpoint: population: " + p.error());
-        auto o = objFromJson(j.at("obj"));
-        if (!o) return Status::error("checkpoint: population: " + o.error());
-        isl.pop.push_back({*p, *o, j.value("refined", false)});
-      }
-      isl.rank = ji.at("rank").get<std::vector<int>>();
-      for (const auto& c : ji.at("crowd"))
-        isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
-      if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
-        return Status::error("checkpoint: island ranks do not match its population");
-      isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
-      isl.stagnant = ji.at("stagnant").get<int>();
-      islands.push_back(std::move(isl));
-    }
-    Archive arch(cfg_.search.archive);
-    auto& members = arch.mutableMembers();
-    for (const auto& j : st.at("archive")) {
-      auto p = programFromJson(j.at("program"), shape_);
-      if (!p) return Status::error("checkpoint: archive: " + p.error());
-      auto o = objFromJson(j.at("obj"));
-      if (!o) return Status::error("checkpoint: archive: " + o.error());
-      members.push_back({*p, *o, j.value("refined", false)});
-    }
-    if (st.at("initialized").get<bool>() && islands.empty())
-      return Status::error("checkpoint: no islands");
-    islands_ = std::move(islands);
-    if (!range_set_) {
-      island_first_ = 0;
-      island_total_ = held;
-    }
-    if (!transport_ || dynamic_cast<LocalTransport*>(transport_.get()))
-      transport_ = std::make_unique<LocalTransport>(island_total_);
-    migrants_before_ = take_counters ? st.at("migrants").get<uint64_t>() : 0;
-    remote_migrants_before_ = take_counters ? st.value("remote_migrants", uint64_t{0}) : 0;
-    restarts_ = take_counters ? st.at("restarts").get<uint64_t>() : 0;
-    archive_ = std::move(arch);
-    initialized_ = st.at("initialized").get<bool>();
-    generation_ = st.at("generation").get<int>();
-    evaluations_ = take_counters ? st.at("evaluations").get<uint64_t>() : 0;
-    elapsed_before_ = st.at("elapsed_s").get<double>();
-    start_ = std::chrono::steady_clock::now();
-    session_evals_ = 0;
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(std::string("checkpoint: ") + e.what());
-  }
-  return Status::ok();
-}
-
-Expected<nlohmann::json> Search::combineCheckpoints(const RunConfig& cfg, const ProgramShape& shape,
-                                                    const std::vector<nlohmann::json>& parts) {
-  if (parts.empty()) return Status::error("checkpoint: no parts to combine");
-  try {
-    nlohmann::json out = parts[0];
-    out.erase("parts");
-    nlohmann::json islands = nlohmann::json::array();
-    Archive arch(cfg.search.archive);
-    uint64_t evaluations = 0, migrants = 0, remote = 0, restarts = 0;
-    int generation = std::numeric_limits<int>::max();
-    double elapsed = 0;
-    bool initialized = true;
-    int next_island = 0;
-    const int total = parts[0].at("island_total").get<int>();
-    for (const auto& part : parts) {
-      if (part.at("config_digest") != parts[0].at("config_digest"))
-        return Status::error("checkpoint: parts were made with different configs");
-      if (part.at("island_first").get<int>() != next_island ||
-          part.at("island_total").get<int>() != total)
-        return Status::error("checkpoint: parts do not cover the islands in order");
-      for (const auto& isl : part.at("islands")) islands.push_back(isl);
-      next_island += static_cast<int>(part.at("islands").size());
-      for (const auto& j : part.at("archive")) {
-        auto p = programFromJson(j.at("program"), shape);
-        if (!p) return Status::error("checkpoint: archive: " + p.error());
-        auto o = objFromJson(j.at("obj"));
-        if (!o) return Status::error("checkpoint: archive: " + o.error());
-        arch.insert(*p, *o, j.value("refined", false));
-      }
-      evaluations += part.at("evaluations").get<uint64_t>();
-      migrants += part.at("migrants").get<uint64_t>();
-      remote += part.value("remote_migrants", uint64_t{0});
-      restarts += part.at("restarts").get<uint64_t>();
-      generation = std::min(generation, part.at("generation").get<int>());
-      elapsed = std::max(elapsed, part.at("elapsed_s").get<double>());
-      initialized = initialized && part.at("initialized").get<bool>();
-    }
-    if (next_island != total)
-      return Status::error("checkpoint: parts hold " + std::to_string(next_island) + " of " +
-                           std::to_string(total) + " islands");
-    nlohmann::json jarch = nlohmann::json::array();
-    for (const auto& m : arch.members())
-      jarch.push_back(
-          {{"program", toJson(m.program)}, {"obj", objToJson(m.obj)}, {"refined", m.refined}});
-    out["islands"] = std::move(islands);
-    out["archive"] = std::move(jarch);
-    out["island_first"] = 0;
-    out["island_total"] = total;
-    out["ranks"] = static_cast<int>(parts.size());
-    out["evaluations"] = evaluations;
-    out["migrants"] = migrants;
-    out["remote_migrants"] = remote;
-    out["restarts"] = restarts;
-    out["generation"] = generation;
-    out["elapsed_s"] = elapsed;
-    out["initialized"] = initialized;
-    out["parts"] = parts;
-    return out;
-  } catch (const nlohmann::json::exception& e) {
-    return Status::error(std::string("checkpoint: ") + e.what());
-  }
+Status Search::restore(const nlohmann::json& state, bool take_counters) {
+  return restoreFromCheckpoint(*this, state, take_counters);
 }
 
 }  // namespace lgp
