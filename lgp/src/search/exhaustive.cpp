@@ -15,6 +15,7 @@
 #include "lgp/core/formula.hpp"
 #include "lgp/core/interval.hpp"
 #include "lgp/eval/cost_model.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/pareto.hpp"

@@ -27,6 +27,7 @@
 
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/migration.hpp"

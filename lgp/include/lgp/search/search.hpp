@@ -47,6 +47,7 @@
 #include "lgp/core/rng.hpp"
 #include "lgp/core/snap.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
