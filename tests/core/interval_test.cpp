@@ -10,6 +10,7 @@
 #include "lgp/core/expr.hpp"
 #include "lgp/core/formula.hpp"
 #include "lgp/core/interval.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
 

@@ -3,6 +3,7 @@
 // into one that an in-process search resumes, and that ranks of another layout redistribute.
 #include <gtest/gtest.h>
 
+#include "lgp/io/checkpoint.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/migration.hpp"
 #include "lgp/search/search.hpp"
@@ -85,8 +86,7 @@ TEST(IslandRange, CombinedCheckpointResumesInOneProcess) {
   const RunConfig c = rangeConfig();
   TwoRanks r(c);
   r.run();
-  auto combined =
-      Search::combineCheckpoints(c, r.a->shape(), {r.a->checkpoint(), r.b->checkpoint()});
+  auto combined = combineCheckpoints(c, r.a->shape(), {r.a->checkpoint(), r.b->checkpoint()});
   ASSERT_TRUE(combined) << combined.error();
   EXPECT_EQ((*combined)["islands"].size(), 4u);
   EXPECT_EQ((*combined)["ranks"], 2);
@@ -119,8 +119,7 @@ TEST(IslandRange, AnotherLayoutTakesItsSliceAndTheWholeArchive) {
   const RunConfig c = rangeConfig();
   TwoRanks r(c);
   r.run();
-  auto combined =
-      Search::combineCheckpoints(c, r.a->shape(), {r.a->checkpoint(), r.b->checkpoint()});
+  auto combined = combineCheckpoints(c, r.a->shape(), {r.a->checkpoint(), r.b->checkpoint()});
   ASSERT_TRUE(combined);
   // Three "ranks" over the same four islands: 0..0, 1..1, 2..3.
   Search mid(c, test::gridTable(10));
@@ -147,9 +146,9 @@ TEST(IslandRange, OnePartAloneIsNotAWholeCheckpoint) {
   ASSERT_FALSE(st);
   EXPECT_NE(st.message().find("one rank of an MPI run"), std::string::npos) << st.message();
   // Parts must cover the islands in order.
-  auto bad = Search::combineCheckpoints(c, r.a->shape(), {r.b->checkpoint(), r.a->checkpoint()});
+  auto bad = combineCheckpoints(c, r.a->shape(), {r.b->checkpoint(), r.a->checkpoint()});
   EXPECT_FALSE(bad);
-  auto half = Search::combineCheckpoints(c, r.a->shape(), {r.a->checkpoint()});
+  auto half = combineCheckpoints(c, r.a->shape(), {r.a->checkpoint()});
   ASSERT_FALSE(half);
   EXPECT_NE(half.error().find("2 of 4 islands"), std::string::npos) << half.error();
 }

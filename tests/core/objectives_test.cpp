@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/pareto.hpp"
 

@@ -297,7 +297,7 @@ void parseObjectives(const nlohmann::json& j, ObjectiveConfig& c) {
   o.finish();
 }
 
-void parseNm(const nlohmann::json& j, NelderMeadSchedule& r) {
+void parseRefine(const nlohmann::json& j, RefineSchedule& r) {
   Obj o(j, "/search/refine");
   o.number("offspring_share", r.offspring_share, 0, 1);
   o.integer("lm_iterations", r.lm_iterations, 0, 1 << 20);
@@ -439,7 +439,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   if (o.has("multi_output")) parseMultiOutput(o.at("multi_output"), s.multi_output);
   if (o.has("islands")) parseIslands(o.at("islands"), s.islands);
   if (o.has("variation")) parseVariation(o.at("variation"), s.variation);
-  if (o.has("refine")) parseNm(o.at("refine"), s.refine);
+  if (o.has("refine")) parseRefine(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
   if (o.has("exhaustive")) parseExhaustive(o.at("exhaustive"), s.exhaustive);
   o.finish();

@@ -16,6 +16,7 @@
 #include "lgp/core/interval.hpp"
 #include "lgp/core/rng.hpp"
 #include "lgp/eval/cost_model.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/semantics.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"

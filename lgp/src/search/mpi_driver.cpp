@@ -12,6 +12,7 @@
 #include <map>
 #include <optional>
 
+#include "lgp/io/checkpoint.hpp"
 #include "lgp/io/result.hpp"
 
 namespace lgp::mpi {
@@ -475,7 +476,7 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
   int checkpoint_seq = 0, answered_seq = 0, wanted_seq = 0;
 
   auto writeCheckpoint = [&](const std::vector<json>& states) {
-    auto combined = Search::combineCheckpoints(cfg, search->shape(), states);
+    auto combined = combineCheckpoints(cfg, search->shape(), states);
     if (!combined) {
       warn("checkpoint not written: " + combined.error());
       return;
@@ -680,7 +681,7 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
   for (int r = 0; r < ranks; ++r)
     if (finals[r].is_null())
       return Status::error("rank " + std::to_string(r) + " sent no final state");
-  auto combined = Search::combineCheckpoints(cfg, search->shape(), finals);
+  auto combined = combineCheckpoints(cfg, search->shape(), finals);
   if (!combined) return combined.status();
   if (checkpoints) {
     if (auto s = writeCheckpointFile(*combined, opt.checkpoint_path); !s)

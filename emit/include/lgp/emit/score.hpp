@@ -22,6 +22,7 @@
 #include "lgp/core/status.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/emit/parser.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/objectives.hpp"
 
 namespace lgp::emit {

@@ -27,6 +27,7 @@
 
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/migration.hpp"
@@ -107,7 +108,7 @@ enum class RefineMethod : uint8_t {
 // at its optimum; with lm_metric least_squares that is only rmse of one channel); archive
 // members get archive_lm_iterations of LM, then the full derivative-free refinement
 // (`method`).
-struct NelderMeadSchedule {
+struct RefineSchedule {
   double offspring_share = 1.0;    // share of each generation's offspring refined
   int lm_iterations = 5;           // LM iterations per refined offspring; 0 = derivative-free
   int archive_lm_iterations = 30;  // LM iterations per archive refinement; 0 = none
@@ -189,7 +190,7 @@ struct SearchConfig {
   MultiOutputConfig multi_output;
   IslandConfig islands;
   VariationConfig variation;
-  NelderMeadSchedule refine;
+  RefineSchedule refine;
   ArchiveConfig archive;
   ExhaustiveConfig exhaustive;
 };

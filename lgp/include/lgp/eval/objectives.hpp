@@ -4,9 +4,12 @@
 //                 transformed target, the program's value is mapped
 //                 back through the inverse transform and the error is measured on the
 //                 original. Several outputs combine by mean (default) or max.
-//  cost           sum over effective opcodes of the per-operator cost of a target model.
+//  cost           sum over effective opcodes of the per-operator cost of a target model
+//                 (cost_model.hpp).
 //  discontinuity  weighted count of piecewise operators among effective opcodes whose branch
-//                 may switch on the table's domain.
+//                 may switch on the table's domain (discontinuity.hpp).
+// This header holds the error (the Scorer measures nothing else) and the triple; the search
+// adds the other two from their own models.
 // A program whose output is NaN or Inf on any row gets error = +inf: it is the worst and
 // never enters a front.
 #pragma once
@@ -19,7 +22,6 @@
 #include <string_view>
 #include <vector>
 
-#include "lgp/core/interval.hpp"
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/eval/cost_model.hpp"
@@ -42,18 +44,6 @@ std::optional<OutputCombine> outputCombineFromString(std::string_view s);
 double applyTransform(TargetTransform t, double y);
 // Inverse, applied to predictions before measuring error.
 double invertTransform(TargetTransform t, double v);
-
-// Discontinuity: the weighted count of effective piecewise operators whose branch may switch
-// on `domain` (interval.hpp: abs of a value that keeps its sign, saturate of a value inside
-// [0, 1], min/max with a dominated operand and a select whose comparison never changes count
-// nothing). A pure function of the program and the domain, so the search stays deterministic.
-struct DiscontinuityModel {
-  std::array<double, kNumOps> weight{};  // default: 1 for piecewise ops, 0 otherwise
-  std::vector<Interval> domain;          // per input (tableDomain); empty: every one counts
-  static DiscontinuityModel defaults();
-  double programDiscontinuity(const Program& p) const;
-  double programDiscontinuity(const Program& p, const std::vector<int>& effective) const;
-};
 
 // The error is measured on channels: a channel is a weighted sum of the model's outputs
 // (after inverse transforms) against the same sum of targets. Without channels every output

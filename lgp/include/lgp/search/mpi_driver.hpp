@@ -16,9 +16,9 @@
 //
 // Rank 0 owns the global view: it merges the ranks' progress reports into the progress line,
 // collects checkpoints (every checkpoint_interval_s it asks every rank for its state at the
-// next generation boundary and writes one combined checkpoint, see
-// Search::combineCheckpoints), and at the end assembles the final archive from every rank's
-// state, in rank order, for the front files. Budgets: generations per rank; evaluations
+// next generation boundary and writes one combined checkpoint, see combineCheckpoints in
+// io/checkpoint.hpp), and at the end assembles the final archive from every rank's state, in
+// rank order, for the front files. Budgets: generations per rank; evaluations
 // summed over ranks (rank 0 tells the others to stop); wall time per rank; a stop request
 // (signal) on any rank stops all of them.
 //

@@ -47,6 +47,7 @@
 #include "lgp/core/rng.hpp"
 #include "lgp/core/snap.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/eval/discontinuity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
@@ -185,15 +186,8 @@ class Search {
   // island range set, a whole-search checkpoint gives this range's islands and the whole
   // archive; take_counters = false starts the evaluation, migrant and restart counters at 0
   // (so that the ranks of a redistributed run do not count them N times).
+  // The JSON itself, and combining the checkpoints of island ranges: io/checkpoint.hpp.
   Status restore(const nlohmann::json& state, bool take_counters = true);
-  // One whole-search checkpoint from the checkpoints of disjoint island ranges covering every
-  // island (the ranks of an MPI run, in rank order): islands in order, archives merged in
-  // order (so the result is deterministic), counters summed, the lowest generation, the
-  // longest elapsed time. The parts are kept under "parts" so that a resume on as many ranks
-  // restores each rank exactly.
-  static Expected<nlohmann::json> combineCheckpoints(const RunConfig& cfg,
-                                                     const ProgramShape& shape,
-                                                     const std::vector<nlohmann::json>& parts);
 
   const RunConfig& config() const { return cfg_; }
   const Table& table() const { return table_; }
@@ -204,6 +198,10 @@ class Search {
   static int maxThreads();
 
  private:
+  // The checkpoint JSON (io/checkpoint.hpp) reads and restores the private state.
+  friend nlohmann::json checkpointToJson(const Search& s);
+  friend Status restoreFromCheckpoint(Search& s, const nlohmann::json& state, bool take_counters);
+
   struct Individual {
     Program program;
     Objectives obj;
@@ -237,7 +235,6 @@ class Search {
   void archiveInsert(const Program& p, const Objectives& o, bool refined);
   double elapsed() const;
   std::string stopReason() const;
-  std::string configDigest() const;
   Scorer& scorer(int thread);
   ConstantFitter& fitter(int thread);
   // The program a member stands for: introns pruned, linear scaling materialised.

@@ -1,0 +1,239 @@
+#include "lgp/io/checkpoint.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace lgp {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+uint64_t fnv1a(const void* data, size_t n, uint64_t h = 1469598103934665603ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+}  // namespace
+
+nlohmann::json objectivesToJson(const Objectives& o) {
+  return nlohmann::json::array(
+      {o.finite() ? nlohmann::json(o.error) : nlohmann::json(nullptr), o.cost, o.discontinuity});
+}
+
+Expected<Objectives> objectivesFromJson(const nlohmann::json& j) {
+  if (!j.is_array() || j.size() != 3 || !j[1].is_number() || !j[2].is_number())
+    return Status::error("bad objectives");
+  Objectives o;
+  o.error = j[0].is_number() ? j[0].get<double>() : kInf;
+  o.cost = j[1].get<double>();
+  o.discontinuity = j[2].get<double>();
+  return o;
+}
+
+std::string configDigest(const RunConfig& cfg, const Table& table) {
+  nlohmann::json c = toJson(cfg);
+  c.erase("output");  // where results go does not change the search
+  c.erase("mpi");     // nor how ranks exchange migrants: a checkpoint resumes either way
+  c["search"].erase("threads");
+  c["search"].erase("generations");  // budgets may be extended on resume
+  c["search"].erase("max_evaluations");
+  c["search"].erase("wall_time_s");
+  const std::string s = c.dump();
+  uint64_t h = fnv1a(s.data(), s.size());
+  for (const auto& col : table.inputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
+  for (const auto& col : table.outputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);
+  h = fnv1a(table.weights.data(), table.weights.size() * sizeof(double), h);
+  char buf[17];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+nlohmann::json checkpointToJson(const Search& s) {
+  nlohmann::json islands = nlohmann::json::array();
+  for (const auto& isl : s.islands_) {
+    nlohmann::json pop = nlohmann::json::array();
+    for (const auto& ind : isl.pop)
+      pop.push_back({{"program", toJson(ind.program)},
+                     {"obj", objectivesToJson(ind.obj)},
+                     {"refined", ind.refined}});
+    // Ranks and crowding come from the last survival's pool (see Search::survive()), which a
+    // resumed run cannot recompute: they are stored. JSON has no infinity: boundary points are
+    // null.
+    nlohmann::json crowd = nlohmann::json::array();
+    for (double c : isl.crowd) crowd.push_back(std::isfinite(c) ? nlohmann::json(c) : nullptr);
+    islands.push_back({{"population", pop},
+                       {"rank", isl.rank},
+                       {"crowd", crowd},
+                       {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
+                       {"stagnant", isl.stagnant}});
+  }
+  nlohmann::json arch = nlohmann::json::array();
+  for (const auto& m : s.archive_.members())
+    arch.push_back(
+        {{"program", toJson(m.program)}, {"obj", objectivesToJson(m.obj)}, {"refined", m.refined}});
+  const int total = s.island_total_ > 0 ? s.island_total_ : static_cast<int>(s.islands_.size());
+  return {{"format", "lgp-checkpoint/2"},
+          {"config_digest", configDigest(s.cfg_, s.table_)},
+          {"initialized", s.initialized_},
+          {"generation", s.generation_},
+          {"evaluations", s.evaluations_},
+          {"elapsed_s", s.elapsed()},
+          {"migrants", s.migrants_before_ + (s.transport_ ? s.transport_->sent() : 0)},
+          {"remote_migrants",
+           s.remote_migrants_before_ + (s.transport_ ? s.transport_->sentRemote() : 0)},
+          {"restarts", s.restarts_},
+          {"ranks", s.ranks_},
+          {"island_first", s.island_first_},
+          {"island_total", total},
+          {"islands", islands},
+          {"archive", arch}};
+}
+
+Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_counters) {
+  try {
+    if (!st.is_object() || st.value("format", "") != "lgp-checkpoint/2")
+      return Status::error("checkpoint: unknown format");
+    if (st.at("config_digest").get<std::string>() != configDigest(s.cfg_, s.table_))
+      return Status::error("checkpoint: made with a different config or table");
+    const auto& jislands = st.at("islands");
+    const int held = static_cast<int>(jislands.size());
+    const int ck_first = st.value("island_first", 0);
+    const int ck_total = st.value("island_total", held);
+    // Which of the checkpoint's islands this search takes: all of them, or its range.
+    int take_first = 0, take_count = held;
+    if (s.range_set_) {
+      if (ck_total != s.island_total_)
+        return Status::error("checkpoint: made with " + std::to_string(ck_total) +
+                             " islands, this run has " + std::to_string(s.island_total_));
+      take_first = s.island_first_ - ck_first;
+      take_count = static_cast<int>(s.islands_.size());
+      if (take_first < 0 || take_first + take_count > held)
+        return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
+                             std::to_string(ck_first + held - 1) + ", not this rank's " +
+                             std::to_string(s.island_first_) + ".." +
+                             std::to_string(s.island_first_ + take_count - 1));
+    } else if (ck_first != 0 || ck_total != held) {
+      return Status::error("checkpoint: holds islands " + std::to_string(ck_first) + ".." +
+                           std::to_string(ck_first + held - 1) + " of " + std::to_string(ck_total) +
+                           " (one rank of an MPI run); resume from the run's combined checkpoint");
+    }
+    std::vector<Search::Island> islands;
+    for (int k = take_first; k < take_first + take_count; ++k) {
+      const auto& ji = jislands.at(static_cast<size_t>(k));
+      Search::Island isl;
+      for (const auto& j : ji.at("population")) {
+        auto p = programFromJson(j.at("program"), s.shape_);
+        if (!p) return Status::error("checkpoint: population: " + p.error());
+        auto o = objectivesFromJson(j.at("obj"));
+        if (!o) return Status::error("checkpoint: population: " + o.error());
+        isl.pop.push_back({*p, *o, j.value("refined", false)});
+      }
+      isl.rank = ji.at("rank").get<std::vector<int>>();
+      for (const auto& c : ji.at("crowd"))
+        isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
+      if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
+        return Status::error("checkpoint: island ranks do not match its population");
+      isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
+      isl.stagnant = ji.at("stagnant").get<int>();
+      islands.push_back(std::move(isl));
+    }
+    Archive arch(s.cfg_.search.archive);
+    auto& members = arch.mutableMembers();
+    for (const auto& j : st.at("archive")) {
+      auto p = programFromJson(j.at("program"), s.shape_);
+      if (!p) return Status::error("checkpoint: archive: " + p.error());
+      auto o = objectivesFromJson(j.at("obj"));
+      if (!o) return Status::error("checkpoint: archive: " + o.error());
+      members.push_back({*p, *o, j.value("refined", false)});
+    }
+    if (st.at("initialized").get<bool>() && islands.empty())
+      return Status::error("checkpoint: no islands");
+    s.islands_ = std::move(islands);
+    if (!s.range_set_) {
+      s.island_first_ = 0;
+      s.island_total_ = held;
+    }
+    if (!s.transport_ || dynamic_cast<LocalTransport*>(s.transport_.get()))
+      s.transport_ = std::make_unique<LocalTransport>(s.island_total_);
+    s.migrants_before_ = take_counters ? st.at("migrants").get<uint64_t>() : 0;
+    s.remote_migrants_before_ = take_counters ? st.value("remote_migrants", uint64_t{0}) : 0;
+    s.restarts_ = take_counters ? st.at("restarts").get<uint64_t>() : 0;
+    s.archive_ = std::move(arch);
+    s.initialized_ = st.at("initialized").get<bool>();
+    s.generation_ = st.at("generation").get<int>();
+    s.evaluations_ = take_counters ? st.at("evaluations").get<uint64_t>() : 0;
+    s.elapsed_before_ = st.at("elapsed_s").get<double>();
+    s.start_ = std::chrono::steady_clock::now();
+    s.session_evals_ = 0;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(std::string("checkpoint: ") + e.what());
+  }
+  return Status::ok();
+}
+
+Expected<nlohmann::json> combineCheckpoints(const RunConfig& cfg, const ProgramShape& shape,
+                                            const std::vector<nlohmann::json>& parts) {
+  if (parts.empty()) return Status::error("checkpoint: no parts to combine");
+  try {
+    nlohmann::json out = parts[0];
+    out.erase("parts");
+    nlohmann::json islands = nlohmann::json::array();
+    Archive arch(cfg.search.archive);
+    uint64_t evaluations = 0, migrants = 0, remote = 0, restarts = 0;
+    int generation = std::numeric_limits<int>::max();
+    double elapsed = 0;
+    bool initialized = true;
+    int next_island = 0;
+    const int total = parts[0].at("island_total").get<int>();
+    for (const auto& part : parts) {
+      if (part.at("config_digest") != parts[0].at("config_digest"))
+        return Status::error("checkpoint: parts were made with different configs");
+      if (part.at("island_first").get<int>() != next_island ||
+          part.at("island_total").get<int>() != total)
+        return Status::error("checkpoint: parts do not cover the islands in order");
+      for (const auto& isl : part.at("islands")) islands.push_back(isl);
+      next_island += static_cast<int>(part.at("islands").size());
+      for (const auto& j : part.at("archive")) {
+        auto p = programFromJson(j.at("program"), shape);
+        if (!p) return Status::error("checkpoint: archive: " + p.error());
+        auto o = objectivesFromJson(j.at("obj"));
+        if (!o) return Status::error("checkpoint: archive: " + o.error());
+        arch.insert(*p, *o, j.value("refined", false));
+      }
+      evaluations += part.at("evaluations").get<uint64_t>();
+      migrants += part.at("migrants").get<uint64_t>();
+      remote += part.value("remote_migrants", uint64_t{0});
+      restarts += part.at("restarts").get<uint64_t>();
+      generation = std::min(generation, part.at("generation").get<int>());
+      elapsed = std::max(elapsed, part.at("elapsed_s").get<double>());
+      initialized = initialized && part.at("initialized").get<bool>();
+    }
+    if (next_island != total)
+      return Status::error("checkpoint: parts hold " + std::to_string(next_island) + " of " +
+                           std::to_string(total) + " islands");
+    nlohmann::json jarch = nlohmann::json::array();
+    for (const auto& m : arch.members())
+      jarch.push_back({{"program", toJson(m.program)},
+                       {"obj", objectivesToJson(m.obj)},
+                       {"refined", m.refined}});
+    out["islands"] = std::move(islands);
+    out["archive"] = std::move(jarch);
+    out["island_first"] = 0;
+    out["island_total"] = total;
+    out["ranks"] = static_cast<int>(parts.size());
+    out["evaluations"] = evaluations;
+    out["migrants"] = migrants;
+    out["remote_migrants"] = remote;
+    out["restarts"] = restarts;
+    out["generation"] = generation;
+    out["elapsed_s"] = elapsed;
+    out["initialized"] = initialized;
+    out["parts"] = parts;
+    return out;
+  } catch (const nlohmann::json::exception& e) {
+    return Status::error(std::string("checkpoint: ") + e.what());
+  }
+}
+
+}  // namespace lgp
