@@ -180,8 +180,7 @@ class Enumerator {
       n.constant = true;
       n.constants = 1;
       std::vector<double> v(width_);
-      for (int d = 0; d < kDraws; ++d)
-        for (int p = 0; p < points_; ++p) v[d * points_ + p] = cvals_[d * nc];
+      evaluate(n, 0, v.data());
       levels_[0].push_back(add(n, v.data()));
     }
     fit_.emplace_back();
