@@ -223,8 +223,21 @@ def rms_of(model, mu, r, y):
 # --- one channel: both engines together -------------------------------------------------------
 
 
-def lgp_config(data_csv, budget, seed, front_json, front_csv):
-    return {
+def merge_patch(target, patch):
+    """RFC 7386 JSON merge patch (as lgp_recovery's --config-json): null deletes a key."""
+    if not isinstance(patch, dict):
+        return patch
+    out = dict(target) if isinstance(target, dict) else {}
+    for k, v in patch.items():
+        if v is None:
+            out.pop(k, None)
+        else:
+            out[k] = merge_patch(out.get(k), v)
+    return out
+
+
+def lgp_config(data_csv, budget, seed, front_json, front_csv, patch=None):
+    cfg = {
         "data": {"path": os.path.basename(data_csv), "inputs": ["mu", "r"], "outputs": ["y"]},
         "objectives": {"error": "rmse"},
         "search": {"linear_scaling": True, "threads": 1, "wall_time_s": budget,
@@ -232,6 +245,11 @@ def lgp_config(data_csv, budget, seed, front_json, front_csv):
         "output": {"front_json": os.path.basename(front_json),
                    "front_csv": os.path.basename(front_csv)},
     }
+    # The protocol keys (budget, thread, seed, files) always win over the patch.
+    fixed = {"search": {k: cfg["search"][k] for k in ("threads", "wall_time_s", "generations",
+                                                       "seed")},
+             "data": cfg["data"], "output": cfg["output"]}
+    return merge_patch(merge_patch(cfg, patch or {}), fixed)
 
 
 def operon_args(exe, data_csv, rows, budget, seed):
@@ -350,7 +368,8 @@ def run_channel(args, name, stem, weight, rows, out):
     front_json = os.path.join(d, "lgp-front.json")
     front_csv = os.path.join(d, "lgp-front.csv")
     with open(cfg_path, "w") as f:
-        json.dump(lgp_config(data_csv, args.budget, args.seed, front_json, front_csv), f, indent=2)
+        json.dump(lgp_config(data_csv, args.budget, args.seed, front_json, front_csv,
+                             args.config_patch), f, indent=2)
         f.write("\n")
     operon_front = os.path.join(d, "operon-front.csv")
     jobs = [
@@ -390,6 +409,9 @@ def report(meta, results):
     L.append("CPU: %s. Load average at the start: %s. Budget %g s wall per engine, seed %d, "
              "1 thread each, both engines of a channel at once." % (
                  meta["cpu"], meta["loadavg"], meta["budget"], meta["seed"]))
+    if meta.get("lgp_config_json"):
+        L.append("lgp config patch (`--config-json`): `%s`." % json.dumps(
+            meta["lgp_config_json"], separators=(",", ":")))
     L.append("")
     L.append("| channel | lgp RMS | lgp RMS (f64) | lgp largest cost | lgp gens / evals "
              "| Operon RMS | Operon RMS (f64) | Operon length | Operon RMS, length <= %d (length) "
@@ -444,7 +466,22 @@ def main():
                     help="operon_nsgp (default $OPERON_NSGP)")
     ap.add_argument("--channels", default=",".join(c[0] for c in CHANNELS),
                     help="comma list of channel names")
+    ap.add_argument("--config-json", default="",
+                    help="JSON merge patch for lgp's config, inline or @file, e.g. "
+                         "'{\"program\":{\"constants\":16}}'")
     args = ap.parse_args()
+    args.config_patch = {}
+    if args.config_json:
+        text = args.config_json
+        try:
+            if text.startswith("@"):
+                with open(text[1:]) as f:
+                    text = f.read()
+            args.config_patch = json.loads(text)
+        except (OSError, ValueError) as e:
+            ap.error("--config-json: %s" % e)
+        if not isinstance(args.config_patch, dict):
+            ap.error("--config-json: must be a JSON object")
     if args.quick:
         args.budget = 10.0
     if args.budget <= 0:
@@ -465,7 +502,8 @@ def main():
 
     meta = {"cpu": cpu_model(), "loadavg": " ".join("%.2f" % v for v in os.getloadavg()),
             "budget": args.budget, "seed": args.seed,
-            "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+            "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+            "lgp_config_json": args.config_patch}
     print("CPU: %s; load average %s" % (meta["cpu"], meta["loadavg"]), flush=True)
     meta["table_command"], rows = make_table(args.lgp, out)
     results = [run_channel(args, n, s, w, rows, out) for n, s, w in CHANNELS if n in wanted]
