@@ -434,6 +434,7 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   o.integer("tournament_size", s.tournament_size, 1, 64);
   o.number("error_bias", s.error_bias, 0, 1);
   o.integer("cost_strata", s.cost_strata, 0, 1024);
+  o.integer("semantic_cache", s.semantic_cache, 0, 1 << 26);
   o.boolean("linear_scaling", s.linear_scaling);
   o.boolean("seed_references", s.seed_references);
   if (o.has("multi_output")) parseMultiOutput(o.at("multi_output"), s.multi_output);
@@ -717,6 +718,7 @@ nlohmann::json toJson(const RunConfig& c) {
             {"tournament_size", s.tournament_size},
             {"error_bias", s.error_bias},
             {"cost_strata", s.cost_strata},
+            {"semantic_cache", s.semantic_cache},
             {"linear_scaling", s.linear_scaling},
             {"seed_references", s.seed_references},
             {"multi_output",

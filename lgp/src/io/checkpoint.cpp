@@ -39,6 +39,7 @@ std::string configDigest(const RunConfig& cfg, const Table& table) {
   c["search"].erase("generations");  // budgets may be extended on resume
   c["search"].erase("max_evaluations");
   c["search"].erase("wall_time_s");
+  c["search"].erase("semantic_cache");  // changes time, never the result
   const std::string s = c.dump();
   uint64_t h = fnv1a(s.data(), s.size());
   for (const auto& col : table.inputs) h = fnv1a(col.data(), col.size() * sizeof(double), h);

@@ -65,6 +65,7 @@ Search::Search(RunConfig cfg, Table table)
       std::min(cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads(), maxThreads());
   scorers_.resize(threads_);
   fitters_.resize(threads_);
+  cache_ = std::make_unique<SemanticCache>(static_cast<size_t>(cfg_.search.semantic_cache));
   start_ = std::chrono::steady_clock::now();
 }
 
@@ -104,7 +105,8 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   return o;
 }
 
-void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full) {
+void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full,
+                       const ProgramKey* key) {
   const auto slots = effectiveConstants(ind.program);
   if (full) ind.refined = true;
   if (slots.empty() || !ind.obj.finite()) return;
@@ -129,7 +131,10 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
     // mostly) of the error the scorer measures: a quick Nelder-Mead polish from there finds
     // nothing, so it is skipped. Where LM fits something else (least_squares with max_abs,
     // say) the polish still runs.
-    if (!full && !fit.improved && fit.converged && lm_fits_the_error_) return;
+    if (!full && !fit.improved && fit.converged && lm_fits_the_error_) {
+      if (key) cache_->storeLmOptimum(*key, static_cast<uint32_t>(fit.evaluations));
+      return;
+    }
     if (fit.improved) {
       const Objectives o = score(s, work);
       ++evals;
@@ -199,16 +204,44 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
                          uint64_t stream, uint64_t index_base) {
   const int n = static_cast<int>(inds.size());
   uint64_t evals = 0;
-#pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) reduction(+ : evals)
+  uint64_t score_hits = 0, lm_hits = 0;
+  const bool cached = cache_->enabled();
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) \
+    reduction(+ : evals, score_hits, lm_hits)
   for (int i = 0; i < n; ++i) {
     const int thread = omp_get_thread_num();
-    inds[i].obj = score(scorer(thread), inds[i].program);
+    Individual& ind = inds[i];
+    const bool refined = !refine.empty() && refine[i];
+    // A hit stands for the work it replaces, evaluations included (semantic_cache.hpp).
+    ProgramKey key;
+    SemanticCache::Entry known;
+    const bool hit = cached && cache_->find(key = effectiveKey(ind.program), known);
+    if (hit) {
+      ind.obj = known.obj;
+      ++score_hits;
+    } else {
+      ind.obj = score(scorer(thread), ind.program);
+      if (cached) cache_->storeObjectives(key, ind.obj);
+    }
     ++evals;
-    if (!refine.empty() && refine[i])
-      refineOne(thread, inds[i],
-                hashSeed(cfg_.search.seed, stream, index_base + static_cast<uint64_t>(i), 3), evals,
-                false);
+    if (!refined) continue;
+    if (hit && known.lm_at_optimum && cfg_.search.refine.lm_iterations > 0) {
+      evals += known.lm_evaluations;  // refineOne would fit, find nothing and stop there
+      ++lm_hits;
+      continue;
+    }
+    const ProgramKey before = key;
+    refineOne(thread, ind,
+              hashSeed(cfg_.search.seed, stream, index_base + static_cast<uint64_t>(i), 3), evals,
+              false, cached ? &key : nullptr);
+    // New constants were scored afresh (refineOne): clones of the refined program hit too.
+    if (cached) {
+      key = effectiveKey(ind.program);
+      if (!(key == before)) cache_->storeObjectives(key, ind.obj);
+    }
   }
+  cache_score_hits_ += score_hits;
+  cache_lm_hits_ += lm_hits;
   evaluations_ += evals;
   session_evals_ += evals;
 }
@@ -667,6 +700,8 @@ RefineStats Search::refineStats() const {
   r.lm_evaluations = lm_evaluations_.load();
   r.nm_runs = nm_runs_.load();
   r.nm_evaluations = nm_evaluations_.load();
+  r.cache_score_hits = cache_score_hits_;
+  r.cache_lm_hits = cache_lm_hits_;
   return r;
 }
 

@@ -8,7 +8,9 @@
 //      draws from an RNG seeded with hash(seed, g, i), so variation is independent of thread
 //      scheduling. A stagnant island (islands.restart_after) breeds random programs and archive
 //      members instead.
-//   2. Offspring are scored in parallel (OpenMP over programs, one Scorer per thread).
+//   2. Offspring are scored in parallel (OpenMP over programs, one Scorer per thread). A
+//      program whose effective form was scored before takes its objectives from the semantic
+//      cache (semantic_cache.hpp), which changes time, never the result.
 //   3. A share of offspring gets its constants fitted (Levenberg-Marquardt with exact
 //      Jacobians, then a quick Nelder-Mead polish where that did not help): this is what lets
 //      a right structure with wrong constants survive.
@@ -53,6 +55,7 @@
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/migration.hpp"
 #include "lgp/search/pareto.hpp"
+#include "lgp/search/semantic_cache.hpp"
 
 namespace lgp {
 
@@ -62,6 +65,9 @@ namespace lgp {
 struct RefineStats {
   uint64_t lm_fits = 0, lm_accepted = 0, lm_converged = 0, lm_evaluations = 0;
   uint64_t nm_runs = 0, nm_evaluations = 0;
+  // Semantic cache hits: offspring scores taken from it, and offspring LM fits it showed to
+  // be at their optimum already (search.semantic_cache).
+  uint64_t cache_score_hits = 0, cache_lm_hits = 0;
 };
 
 struct SearchProgress {
@@ -220,7 +226,10 @@ class Search {
                    uint64_t stream, uint64_t index_base = 0);
   Objectives score(Scorer& s, const Program& p) const;
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
-  void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full);
+  // `key` (offspring only, with the cache on): the program's cache key, under which an LM fit
+  // that converged without improving is recorded.
+  void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full,
+                 const ProgramKey* key = nullptr);
   // Replaces the island's population by the best `keep` of pool (NSGA-II elitism, with
   // search.cost_strata the best of each cost slice first).
   void survive(Island& isl, std::vector<Individual>& pool, int keep) const;
@@ -271,6 +280,8 @@ class Search {
   // RefineStats, counted by every thread.
   std::atomic<uint64_t> lm_fits_{0}, lm_accepted_{0}, lm_converged_{0}, lm_evaluations_{0};
   std::atomic<uint64_t> nm_runs_{0}, nm_evaluations_{0};
+  std::unique_ptr<SemanticCache> cache_;
+  uint64_t cache_score_hits_ = 0, cache_lm_hits_ = 0;
   // LM fits the error the scorer measures (lm_metric configured, or plain least squares on
   // rmse of one channel; not a transformed output under linear scaling, whose scale LM and the
   // scorer fit on different scales): where LM has converged, Nelder-Mead has nothing to add.
