@@ -132,7 +132,8 @@ int main(int argc, char** argv) {
                 b["seconds"].get<double>(), b["error"].is_null() ? NAN : b["error"].get<double>(),
                 complete ? "" : "(incomplete) ", b["formula"].get<std::string>().c_str());
   }
-  std::printf("# complete up to %d operators; wall %.2f s, CPU %.2f s (all threads)\n",
-              r->complete_ops, wall, cpu);
+  std::printf("# complete up to %d operators%s%s%s; wall %.2f s, CPU %.2f s (all threads)\n",
+              r->complete_ops, r->stopped.empty() ? "" : " (stopped: ", r->stopped.c_str(),
+              r->stopped.empty() ? "" : ")", wall, cpu);
   return 0;
 }

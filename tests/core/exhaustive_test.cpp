@@ -117,6 +117,8 @@ TEST(Exhaustive, RecoversExp2OfAQuadraticAtFourOperatorsAndNotBefore) {
   ASSERT_EQ(j["best"].size(), 4u);
   EXPECT_EQ(j["best"][3]["max_ops"], 4);
   EXPECT_TRUE(j["best"][3]["complete"].get<bool>());
+  EXPECT_TRUE(r->stopped.empty());
+  EXPECT_TRUE(j["stopped"].is_null());
 }
 
 TEST(Exhaustive, TheFrontTableStatesTheCountsPerSize) {
@@ -151,6 +153,14 @@ TEST(Exhaustive, ATimeBudgetLeavesTheRestIncomplete) {
   EXPECT_LT(r->complete_ops, 5);
   const auto j = r->toJson(c, t);
   EXPECT_EQ(j["complete_ops"], r->complete_ops);
+  EXPECT_EQ(j["stopped"], "seconds");
+  const nlohmann::json front = {{"table", {{"inputs", {"x", "y"}}, {"outputs", {"f"}}}},
+                                {"members", nlohmann::json::array()},
+                                {"exhaustive", j}};
+  EXPECT_NE(formatFrontTable(front).find("stopped by the time budget after " +
+                                         std::to_string(r->complete_ops) + " ops"),
+            std::string::npos)
+      << formatFrontTable(front);
 }
 
 TEST(Exhaustive, ConfigErrorsNameTheField) {

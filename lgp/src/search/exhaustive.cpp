@@ -27,9 +27,11 @@ namespace lgp {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Expressions kept per operator count before the enumeration stops growing (memory: each
-// keeps its probe values, 48 doubles).
-constexpr size_t kMaxPerLevel = size_t{1} << 24;
+// Expressions kept per operator count before the enumeration stops growing. Memory: a size
+// whose trees become operands keeps each one's probe values (48 doubles, 6 GiB at the cap);
+// the largest size keeps only its nodes and fingerprints (about 100 bytes each).
+constexpr size_t kMaxPerOperandLevel = size_t{1} << 24;
+constexpr size_t kMaxPerLastLevel = size_t{1} << 26;
 // Probe points: the corners of the table's box, some of its rows and random points in the box.
 constexpr int kProbeRows = 8;
 constexpr int kProbeRandom = 12;
@@ -210,8 +212,9 @@ class Enumerator {
           // tree has none, as x / x: replacing it would add a constant).
           if (batch[i].constants > 0 && constantOverPoints(v)) continue;
         }
-        if (level.size() >= kMaxPerLevel) {
+        if (level.size() >= (operand ? kMaxPerOperandLevel : kMaxPerLastLevel)) {
           capped = true;
+          size_capped_ = true;
           break;
         }
         level.push_back(add(batch[i], operand ? v : nullptr));
@@ -285,6 +288,11 @@ class Enumerator {
     levels_.push_back(std::move(level));
     fit_.push_back(std::move(fit));
     return true;
+  }
+
+  // The last grow() stopped at the cap on expressions per size (not at the deadline).
+  bool sizeCapped() const {
+    return size_capped_;
   }
 
   const std::vector<int>& level(int s) const {
@@ -434,6 +442,7 @@ class Enumerator {
   std::vector<Node> nodes_;
   std::vector<double> vals_;  // [node][draw][point]
   std::vector<std::vector<int>> levels_, fit_;
+  bool size_capped_ = false;
   std::unordered_set<Key, KeyHash> exact_, roots_;
 };
 
@@ -529,6 +538,7 @@ nlohmann::json ExhaustiveResult::toJson(const RunConfig& cfg, const Table& t) co
             {"free_constants", x.constants},
             {"max_ops", x.max_ops}}},
           {"complete_ops", complete_ops},
+          {"stopped", stopped.empty() ? nlohmann::json(nullptr) : nlohmann::json(stopped)},
           {"fitted", fitted},
           {"seconds", seconds},
           {"constant_fit", "Levenberg-Marquardt from +1 on " + std::to_string(x.screen_rows) +
@@ -577,7 +587,10 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
   std::vector<ExhaustiveMember> all;
   Enumerator en(t, ops, x.constants, err.linear_scaling, threads);
   for (int s = 1; s <= x.max_ops; ++s) {
-    if (seconds() > x.seconds || !en.grow(s, s < x.max_ops, deadline)) break;
+    if (seconds() > x.seconds || !en.grow(s, s < x.max_ops, deadline)) {
+      res.stopped = en.sizeCapped() ? "expression cap" : "seconds";
+      break;
+    }
     const std::vector<int>& level = en.toFit(s);
     res.enumerated.push_back(en.level(s).size());
     res.screened.push_back(level.size());
@@ -597,7 +610,10 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
       Program p;
       screen_err[i] = screened(omp_get_thread_num(), i, p);
     }
-    if (out_of_time) break;
+    if (out_of_time) {
+      res.stopped = "seconds";
+      break;
+    }
     // The best `keep` go on to the whole table.
     std::vector<size_t> order(level.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;

@@ -55,6 +55,9 @@ struct ExhaustiveResult {
   std::vector<double> level_seconds;  // [k]: seconds from the start until size k was done
   uint64_t fitted = 0;                // constant fits on every row
   int complete_ops = -1;              // every expression of <= this many operators was fitted
+  // Why the sizes above complete_ops were not done: "seconds" (the budget) or "expression
+  // cap" (more distinct expressions of one size than the enumerator keeps); empty if all were.
+  std::string stopped;
   double seconds = 0;
   // The certificate for the front JSON ("exhaustive"): grammar, counts, best per k.
   nlohmann::json toJson(const RunConfig& cfg, const Table& t) const;
