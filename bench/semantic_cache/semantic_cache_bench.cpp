@@ -2,7 +2,7 @@
 // evaluation budget, run with each setting in turn (interleaved, --reps times). The cache
 // must not change the result, so every run's front is compared with the first run's without
 // it; what it changes is time. Prints, per run, wall and CPU time, generations, evaluations,
-// the cache's hits (offspring scores, and LM fits it showed to be at their optimum), the LM
+// the cache's hits (offspring scores, and offspring LM fits replayed from it), the LM
 // fits actually run, and whether the front is identical; then the median wall-time ratio.
 //
 // Usage: semantic_cache_bench CONFIG TABLE [--evaluations N] [--reps N] [--threads N]
@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
               lgp::bench::cpuModel().c_str(), lgp::bench::utcNow().c_str(), threads, evaluations,
               on_cfg->search.semantic_cache);
   std::printf("%-5s %4s %9s %9s %6s %12s %11s %9s %9s %6s\n", "cache", "rep", "wall_s", "cpu_s",
-              "gens", "evals", "score_hits", "lm_hits", "lm_fits", "same");
+              "gens", "evals", "score_hits", "lm_replays", "lm_fits", "same");
   nlohmann::json reference;
   std::vector<double> ratios;
   for (int rep = 0; rep < reps; ++rep) {
@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
       std::printf("%-5s %4d %9.2f %9.2f %6d %12llu %11llu %9llu %9llu %6s\n", on ? "on" : "off",
                   rep, wall, cpu, p.generation, static_cast<unsigned long long>(p.evaluations),
                   static_cast<unsigned long long>(r.cache_score_hits),
-                  static_cast<unsigned long long>(r.cache_lm_hits),
+                  static_cast<unsigned long long>(r.cache_lm_replays),
                   static_cast<unsigned long long>(r.lm_fits), members == reference ? "yes" : "NO");
       std::fflush(stdout);
       if (on)

@@ -93,19 +93,28 @@ TEST(SemanticCache, StoresAndReplaces) {
   SemanticCache::Entry e;
   EXPECT_FALSE(c.find(a, e));
   c.storeObjectives(a, Objectives{0.25, 3, 1});
-  c.storeLmOptimum(a, 7);
+  ASSERT_TRUE(c.find(a, e));
+  EXPECT_FALSE(e.lm_known);
+  SemanticCache::LmOutcome lm;
+  lm.improved = true;
+  lm.evaluations = 7;
+  lm.count = 2;
+  lm.after = {0.5f, -2.0f};
+  c.storeLm(a, lm);
   ASSERT_TRUE(c.find(a, e));
   EXPECT_EQ(e.obj.error, 0.25);
-  EXPECT_TRUE(e.lm_at_optimum);
-  EXPECT_EQ(e.lm_evaluations, 7u);
-  c.storeObjectives(a, Objectives{0.25, 3, 1});  // known already: the LM result stays
+  EXPECT_TRUE(e.lm_known);
+  EXPECT_TRUE(e.lm.improved);
+  EXPECT_EQ(e.lm.evaluations, 7u);
+  EXPECT_EQ(e.lm.after[1], -2.0f);
+  c.storeObjectives(a, Objectives{0.25, 3, 1});  // known already: the LM outcome stays
   ASSERT_TRUE(c.find(a, e));
-  EXPECT_TRUE(e.lm_at_optimum);
+  EXPECT_TRUE(e.lm_known);
   c.storeObjectives(b, Objectives{0.5, 4, 0});  // replaces a
   EXPECT_FALSE(c.find(a, e));
   ASSERT_TRUE(c.find(b, e));
-  EXPECT_FALSE(e.lm_at_optimum);
-  c.storeLmOptimum(a, 9);  // a is gone: nothing to attach to
+  EXPECT_FALSE(e.lm_known);
+  c.storeLm(a, lm);  // a is gone: nothing to attach to
   EXPECT_FALSE(c.find(a, e));
 }
 
@@ -174,10 +183,10 @@ TEST(SemanticCache, SearchWithCacheEqualsSearchWithout) {
     SCOPED_TRACE(std::string(toString(k.metric)) + (k.scaling ? " scaled" : ""));
     const Outcome on = runSearch(searchConfig(1 << 12, k.metric, k.scaling));
     const Outcome off = runSearch(searchConfig(0, k.metric, k.scaling));
-    std::printf("%s%s: score hits %llu, LM hits %llu, LM fits %llu (without: %llu)\n",
+    std::printf("%s%s: score hits %llu, LM replays %llu, LM fits %llu (without: %llu)\n",
                 std::string(toString(k.metric)).c_str(), k.scaling ? " scaled" : "",
                 static_cast<unsigned long long>(on.stats.cache_score_hits),
-                static_cast<unsigned long long>(on.stats.cache_lm_hits),
+                static_cast<unsigned long long>(on.stats.cache_lm_replays),
                 static_cast<unsigned long long>(on.stats.lm_fits),
                 static_cast<unsigned long long>(off.stats.lm_fits));
     EXPECT_EQ(on.members, off.members);
@@ -186,7 +195,7 @@ TEST(SemanticCache, SearchWithCacheEqualsSearchWithout) {
     // Clones and intron-only mutants are common: a tenth of the offspring at least.
     EXPECT_GE(on.stats.cache_score_hits, 16u * 80 / 10);
     if (!k.scaling) {
-      EXPECT_GT(on.stats.cache_lm_hits, 0u);
+      EXPECT_GT(on.stats.cache_lm_replays, 0u);
       EXPECT_LT(on.stats.lm_fits, off.stats.lm_fits);
     }
   }
@@ -223,7 +232,7 @@ TEST(SemanticCache, ClonesAreFittedOnce) {
   EXPECT_EQ(on_evals, off_evals);
   EXPECT_EQ(off.lm_fits, 40u);
   EXPECT_EQ(on.lm_fits, 1u);
-  EXPECT_EQ(on.cache_lm_hits, 39u);
+  EXPECT_EQ(on.cache_lm_replays, 39u);
   // The adopted 40 (all but the first), then the 40 offspring.
   EXPECT_EQ(on.cache_score_hits, 79u);
 }

@@ -119,23 +119,39 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
   bool lm_helped = false;
   if (lm_iterations > 0) {
     Program work = ind.program;
-    LevenbergMarquardtConfig lm;
-    lm.max_iterations = lm_iterations;
-    lm.objective = sched.lm_metric;
-    const auto fit = fitter(thread).fit(work, lm);
-    evals += static_cast<uint64_t>(fit.evaluations);
-    lm_fits_.fetch_add(1, std::memory_order_relaxed);
-    lm_evaluations_.fetch_add(static_cast<uint64_t>(fit.evaluations), std::memory_order_relaxed);
-    if (fit.converged && !fit.improved) lm_converged_.fetch_add(1, std::memory_order_relaxed);
+    // An offspring fit of a program the cache knows is replayed: LM is deterministic, so the
+    // same constants, flags and evaluations (semantic_cache.hpp).
+    const bool cacheable = key && !full && slots.size() <= SemanticCache::LmOutcome::kMaxConstants;
+    SemanticCache::Entry known;
+    SemanticCache::LmOutcome out;
+    if (cacheable && cache_->find(*key, known) && known.lm_known) {
+      out = known.lm;
+      for (size_t k = 0; k < slots.size(); ++k) work.constants[slots[k]] = out.after[k];
+      cache_lm_replays_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      LevenbergMarquardtConfig lm;
+      lm.max_iterations = lm_iterations;
+      lm.objective = sched.lm_metric;
+      const auto fit = fitter(thread).fit(work, lm);
+      out.improved = fit.improved;
+      out.converged = fit.converged;
+      out.evaluations = static_cast<uint32_t>(fit.evaluations);
+      lm_fits_.fetch_add(1, std::memory_order_relaxed);
+      lm_evaluations_.fetch_add(static_cast<uint64_t>(fit.evaluations), std::memory_order_relaxed);
+      if (fit.converged && !fit.improved) lm_converged_.fetch_add(1, std::memory_order_relaxed);
+      if (cacheable) {
+        out.count = static_cast<uint8_t>(slots.size());
+        for (size_t k = 0; k < slots.size(); ++k) out.after[k] = work.constants[slots[k]];
+        cache_->storeLm(*key, out);
+      }
+    }
+    evals += out.evaluations;
     // Constants already at LM's optimum (clones and intron-only mutants of refined parents,
     // mostly) of the error the scorer measures: a quick Nelder-Mead polish from there finds
     // nothing, so it is skipped. Where LM fits something else (least_squares with max_abs,
     // say) the polish still runs.
-    if (!full && !fit.improved && fit.converged && lm_fits_the_error_) {
-      if (key) cache_->storeLmOptimum(*key, static_cast<uint32_t>(fit.evaluations));
-      return;
-    }
-    if (fit.improved) {
+    if (!full && !out.improved && out.converged && lm_fits_the_error_) return;
+    if (out.improved) {
       const Objectives o = score(s, work);
       ++evals;
       if (o.error < ind.obj.error) {
@@ -204,10 +220,9 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
                          uint64_t stream, uint64_t index_base) {
   const int n = static_cast<int>(inds.size());
   uint64_t evals = 0;
-  uint64_t score_hits = 0, lm_hits = 0;
+  uint64_t score_hits = 0;
   const bool cached = cache_->enabled();
-#pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) \
-    reduction(+ : evals, score_hits, lm_hits)
+#pragma omp parallel for num_threads(threads_) schedule(dynamic, 4) reduction(+ : evals, score_hits)
   for (int i = 0; i < n; ++i) {
     const int thread = omp_get_thread_num();
     Individual& ind = inds[i];
@@ -225,11 +240,6 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
     }
     ++evals;
     if (!refined) continue;
-    if (hit && known.lm_at_optimum && cfg_.search.refine.lm_iterations > 0) {
-      evals += known.lm_evaluations;  // refineOne would fit, find nothing and stop there
-      ++lm_hits;
-      continue;
-    }
     const ProgramKey before = key;
     refineOne(thread, ind,
               hashSeed(cfg_.search.seed, stream, index_base + static_cast<uint64_t>(i), 3), evals,
@@ -241,7 +251,6 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
     }
   }
   cache_score_hits_ += score_hits;
-  cache_lm_hits_ += lm_hits;
   evaluations_ += evals;
   session_evals_ += evals;
 }
@@ -701,7 +710,7 @@ RefineStats Search::refineStats() const {
   r.nm_runs = nm_runs_.load();
   r.nm_evaluations = nm_evaluations_.load();
   r.cache_score_hits = cache_score_hits_;
-  r.cache_lm_hits = cache_lm_hits_;
+  r.cache_lm_replays = cache_lm_replays_.load();
   return r;
 }
 

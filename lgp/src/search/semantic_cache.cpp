@@ -87,17 +87,17 @@ void SemanticCache::storeObjectives(const ProgramKey& key, const Objectives& obj
   if (s.used && s.key == key) return;  // the same objectives, and maybe an LM result too
   s.key = key;
   s.used = true;
-  s.entry = Entry{obj, 0, false};
+  s.entry = Entry{obj, false, {}};
 }
 
-void SemanticCache::storeLmOptimum(const ProgramKey& key, uint32_t evaluations) {
+void SemanticCache::storeLm(const ProgramKey& key, const LmOutcome& lm) {
   if (slots_.empty()) return;
   const size_t i = key.a & mask_;
   std::lock_guard lock(lockFor(i));
   Slot& s = slots_[i];
   if (!s.used || !(s.key == key)) return;  // the objectives were evicted: nothing to add to
-  s.entry.lm_evaluations = evaluations;
-  s.entry.lm_at_optimum = true;
+  s.entry.lm = lm;
+  s.entry.lm_known = true;
 }
 
 }  // namespace lgp

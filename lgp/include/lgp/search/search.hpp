@@ -65,9 +65,10 @@ namespace lgp {
 struct RefineStats {
   uint64_t lm_fits = 0, lm_accepted = 0, lm_converged = 0, lm_evaluations = 0;
   uint64_t nm_runs = 0, nm_evaluations = 0;
-  // Semantic cache hits: offspring scores taken from it, and offspring LM fits it showed to
-  // be at their optimum already (search.semantic_cache).
-  uint64_t cache_score_hits = 0, cache_lm_hits = 0;
+  // Semantic cache hits (search.semantic_cache): offspring scores taken from it, and
+  // offspring LM fits replayed from it (not counted in lm_fits and the other LM counters,
+  // which count fits run).
+  uint64_t cache_score_hits = 0, cache_lm_replays = 0;
 };
 
 struct SearchProgress {
@@ -226,8 +227,8 @@ class Search {
                    uint64_t stream, uint64_t index_base = 0);
   Objectives score(Scorer& s, const Program& p) const;
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
-  // `key` (offspring only, with the cache on): the program's cache key, under which an LM fit
-  // that converged without improving is recorded.
+  // `key` (offspring only, with the cache on): the program's cache key, under which its LM fit
+  // is recorded, or from which it is replayed.
   void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full,
                  const ProgramKey* key = nullptr);
   // Replaces the island's population by the best `keep` of pool (NSGA-II elitism, with
@@ -281,7 +282,8 @@ class Search {
   std::atomic<uint64_t> lm_fits_{0}, lm_accepted_{0}, lm_converged_{0}, lm_evaluations_{0};
   std::atomic<uint64_t> nm_runs_{0}, nm_evaluations_{0};
   std::unique_ptr<SemanticCache> cache_;
-  uint64_t cache_score_hits_ = 0, cache_lm_hits_ = 0;
+  uint64_t cache_score_hits_ = 0;
+  std::atomic<uint64_t> cache_lm_replays_{0};
   // LM fits the error the scorer measures (lm_metric configured, or plain least squares on
   // rmse of one channel; not a transformed output under linear scaling, whose scale LM and the
   // scorer fit on different scales): where LM has converged, Nelder-Mead has nothing to add.

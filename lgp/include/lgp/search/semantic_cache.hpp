@@ -7,6 +7,9 @@
 // with the same key run the same float operations on the same operands, so their objectives
 // are bit-identical, and so is a Levenberg-Marquardt fit of their constants.
 //
+// A Levenberg-Marquardt fit is kept too: whether it improved or converged, its evaluations
+// and the constants it found; a second offspring fit of the key replays it.
+//
 // The cache is therefore invisible in results: a hit returns exactly what the work would have
 // produced, and the search counts the evaluations the work would have cost. Fronts, evaluation
 // counts and checkpoints are the same with the cache on or off, on any thread count, and a
@@ -40,11 +43,20 @@ ProgramKey effectiveKey(const Program& p);
 
 class SemanticCache {
  public:
+  // The outcome of an offspring Levenberg-Marquardt fit of one program: deterministic, so a
+  // second fit of the same key would repeat it.
+  struct LmOutcome {
+    static constexpr int kMaxConstants = 16;  // fits of more effective constants are not kept
+    bool improved = false, converged = false;
+    uint32_t evaluations = 0;
+    uint8_t count = 0;                         // effective constant slots, ascending
+    std::array<float, kMaxConstants> after{};  // their values after the fit
+  };
   // What is known about one effective program.
   struct Entry {
-    Objectives obj;               // as Search::score() measures the program
-    uint32_t lm_evaluations = 0;  // an offspring LM fit's evaluations, if lm_at_optimum
-    bool lm_at_optimum = false;   // that fit converged without improving the constants
+    Objectives obj;  // as Search::score() measures the program
+    bool lm_known = false;
+    LmOutcome lm;  // if lm_known
   };
 
   // `entries` is rounded up to a power of two; 0 disables the cache.
@@ -55,8 +67,8 @@ class SemanticCache {
   bool find(const ProgramKey& key, Entry& out) const;
   // Records a program's objectives (what an LM fit found is kept if the key is already there).
   void storeObjectives(const ProgramKey& key, const Objectives& obj);
-  // Records that an offspring LM fit of this program converged without improving it.
-  void storeLmOptimum(const ProgramKey& key, uint32_t evaluations);
+  // Records an offspring LM fit of this program (nothing if its objectives are not there).
+  void storeLm(const ProgramKey& key, const LmOutcome& lm);
 
  private:
   struct Slot {
