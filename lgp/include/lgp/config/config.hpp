@@ -183,9 +183,9 @@ struct SearchConfig {
   // their Pareto rank (0 = off: plain NSGA-II survival). Keeps large programs alive where
   // they are dominated by cheap ones of about the same error.
   int cost_strata = 0;
-  // Entries of the semantic cache (search/semantic_cache.hpp): objectives, and whether an LM
-  // fit found nothing to improve, keyed by a program's effective form, so that clones and
-  // intron-only mutants are not evaluated again. It changes time, never the result; 0 = off.
+  // Entries of the semantic cache (search/semantic_cache.hpp): objectives and offspring LM
+  // fits, keyed by a program's effective form, so that clones and intron-only mutants are not
+  // evaluated or fitted again. It changes time, never the result; 0 = off.
   int semantic_cache = 1 << 16;
   bool linear_scaling = false;   // fit each output as a*f + b with the closed-form a, b
                                  // (Keijzer; Operon); the front's programs include the mad
