@@ -106,7 +106,7 @@ Objectives Search::score(Scorer& s, const Program& p) const {
 }
 
 void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full,
-                       const ProgramKey* key) {
+                       const ProgramKey* key, const SemanticCache::Entry* known) {
   const auto slots = effectiveConstants(ind.program);
   if (full) ind.refined = true;
   if (slots.empty() || !ind.obj.finite()) return;
@@ -122,10 +122,9 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
     // An offspring fit of a program the cache knows is replayed: LM is deterministic, so the
     // same constants, flags and evaluations (semantic_cache.hpp).
     const bool cacheable = key && !full && slots.size() <= SemanticCache::LmOutcome::kMaxConstants;
-    SemanticCache::Entry known;
     SemanticCache::LmOutcome out;
-    if (cacheable && cache_->find(*key, known) && known.lm_known) {
-      out = known.lm;
+    if (cacheable && known && known->lm_known) {
+      out = known->lm;
       for (size_t k = 0; k < slots.size(); ++k) work.constants[slots[k]] = out.after[k];
       cache_lm_replays_.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -240,14 +239,13 @@ void Search::evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_
     }
     ++evals;
     if (!refined) continue;
-    const ProgramKey before = key;
     refineOne(thread, ind,
               hashSeed(cfg_.search.seed, stream, index_base + static_cast<uint64_t>(i), 3), evals,
-              false, cached ? &key : nullptr);
+              false, cached ? &key : nullptr, hit ? &known : nullptr);
     // New constants were scored afresh (refineOne): clones of the refined program hit too.
     if (cached) {
-      key = effectiveKey(ind.program);
-      if (!(key == before)) cache_->storeObjectives(key, ind.obj);
+      const ProgramKey after = effectiveKey(ind.program);
+      if (!(after == key)) cache_->storeObjectives(after, ind.obj);
     }
   }
   cache_score_hits_ += score_hits;

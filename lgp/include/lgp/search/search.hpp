@@ -228,9 +228,10 @@ class Search {
   Objectives score(Scorer& s, const Program& p) const;
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
   // `key` (offspring only, with the cache on): the program's cache key, under which its LM fit
-  // is recorded, or from which it is replayed.
+  // is recorded; `known`: what the cache held under it when the offspring was scored, whose LM
+  // outcome, if any, is replayed instead of fitting.
   void refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& evals, bool full,
-                 const ProgramKey* key = nullptr);
+                 const ProgramKey* key = nullptr, const SemanticCache::Entry* known = nullptr);
   // Replaces the island's population by the best `keep` of pool (NSGA-II elitism, with
   // search.cost_strata the best of each cost slice first).
   void survive(Island& isl, std::vector<Individual>& pool, int keep) const;
