@@ -6,8 +6,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 namespace lgp::bench {
 
@@ -45,6 +48,27 @@ inline std::string utcNow() {
   char b[32];
   std::strftime(b, sizeof(b), "%Y-%m-%d %H:%M UTC", &tm);
   return b;
+}
+
+// A run config's JSON read from `config` for a benchmark on the table file `table`: the data
+// section points at the table (no scene), references and outputs are dropped, and the search
+// runs on `threads` threads without a wall-time budget. Exits with a message if `config` is
+// not JSON.
+inline nlohmann::json benchConfigJson(const char* config, const char* table, int threads) {
+  std::ifstream in(config);
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded()) {
+    std::fprintf(stderr, "%s: not JSON\n", config);
+    std::exit(1);
+  }
+  j["data"].erase("scene");
+  j["data"]["path"] = std::filesystem::absolute(table).string();
+  j.erase("references");
+  j.erase("output");
+  j["search"]["seed_references"] = false;
+  j["search"]["threads"] = threads;
+  j["search"].erase("wall_time_s");
+  return j;
 }
 
 }  // namespace lgp::bench

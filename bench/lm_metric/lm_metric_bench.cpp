@@ -15,11 +15,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "../bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/search/search.hpp"
 
@@ -43,20 +43,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::ifstream in(argv[1]);
-  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded()) {
-    std::fprintf(stderr, "%s: not JSON\n", argv[1]);
-    return 1;
-  }
-  j["data"].erase("scene");
-  j["data"]["path"] = std::filesystem::absolute(argv[2]).string();
-  j.erase("references");
-  j.erase("output");
-  j["search"]["seed_references"] = false;
-  j["search"]["threads"] = 1;
+  nlohmann::json j = lgp::bench::benchConfigJson(argv[1], argv[2], 1);
   j["search"]["generations"] = generations;
-  j["search"].erase("wall_time_s");
   if (!error.empty()) j["objectives"]["error"] = error;
   std::printf("%-14s %4s %14s %12s %8s %8s %7s %9s %8s %10s %8s\n", "lm_metric", "rep",
               "best_error", "evals", "lm_fits", "lm_acc", "acc%", "lm_conv", "nm_runs", "nm_evals",

@@ -16,10 +16,8 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -56,21 +54,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  std::ifstream in(argv[1]);
-  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded()) {
-    std::fprintf(stderr, "%s: not JSON\n", argv[1]);
-    return 1;
-  }
-  j["data"].erase("scene");
-  j["data"]["path"] = std::filesystem::absolute(argv[2]).string();
-  j.erase("references");
-  j.erase("output");
-  j["search"]["seed_references"] = false;
-  j["search"]["threads"] = threads;
+  nlohmann::json j = lgp::bench::benchConfigJson(argv[1], argv[2], threads);
   j["search"]["generations"] = 0;
   j["search"]["max_evaluations"] = evaluations;
-  j["search"].erase("wall_time_s");
   if (entries >= 0) j["search"]["semantic_cache"] = entries;
   auto on_cfg = lgp::parseRunConfig(j, std::filesystem::path(argv[1]).parent_path());
   if (!on_cfg) {
