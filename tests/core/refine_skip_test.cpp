@@ -6,45 +6,20 @@
 #include <string>
 #include <vector>
 
+#include "clone_generation.hpp"
 #include "lgp/search/search.hpp"
-#include "test_tables.hpp"
 
 namespace lgp {
 namespace {
 
-Table lineTable() {
-  return test::sampledTable(200, 2, [](double x) { return 0.5 + 2 * x; });
-}
-
-// c0 + c1 x, at the optimum.
-Program line() {
-  Program p;
-  p.constants = {0.5f, 2.0f};
-  p.code = {{Op::Mul, {inputOperand(0), constOperand(1)}},
-            {Op::Add, {regOperand(0), constOperand(0)}}};
-  p.outputs = {1};
-  return p;
-}
-
 // Evaluations of one generation of clones (no crossover, no mutation), every one refined.
 uint64_t cloneGeneration(ErrorMetric metric, LmObjective lm = LmObjective::Configured) {
-  RunConfig c;
-  c.data.path = "in-memory";
-  c.program.ops = {Op::Add, Op::Mul};
-  c.program.num_constants = 2;
-  c.program.max_length = 8;
+  RunConfig c = test::cloneConfig();
   c.objectives.metric = metric;
-  c.search.population = 40;
-  c.search.threads = 1;
-  c.search.variation.crossover_rate = 0;
-  c.search.variation.macro_rate = 0;
-  c.search.variation.micro_rate = 0;
-  c.search.refine.offspring_share = 1.0;
   c.search.refine.offspring_evaluations = 60;
   c.search.refine.lm_metric = lm;
-  Search s(c, lineTable());
-  s.adopt(std::vector<Program>(c.search.population, line()), 0, 0, 0, "");
-  s.step(false);
+  Search s(c, test::lineTable());
+  test::stepClones(s);
   return s.progress().evaluations;
 }
 

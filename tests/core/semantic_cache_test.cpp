@@ -7,6 +7,7 @@
 #include <cstring>
 #include <vector>
 
+#include "clone_generation.hpp"
 #include "lgp/core/variation.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
@@ -205,26 +206,10 @@ TEST(SemanticCache, SearchWithCacheEqualsSearchWithout) {
 // evaluations is the one without the cache.
 TEST(SemanticCache, ClonesAreFittedOnce) {
   auto run = [](int cache) {
-    RunConfig c;
-    c.data.path = "in-memory";
-    c.program.ops = {Op::Add, Op::Mul};
-    c.program.num_constants = 2;
-    c.program.max_length = 8;
-    c.search.population = 40;
-    c.search.threads = 1;
-    c.search.variation.crossover_rate = 0;
-    c.search.variation.macro_rate = 0;
-    c.search.variation.micro_rate = 0;
-    c.search.refine.offspring_share = 1.0;
+    RunConfig c = test::cloneConfig();
     c.search.semantic_cache = cache;
-    Program line;
-    line.constants = {0.5f, 2.0f};
-    line.code = {{Op::Mul, {inputOperand(0), constOperand(1)}},
-                 {Op::Add, {regOperand(0), constOperand(0)}}};
-    line.outputs = {1};
-    Search s(c, test::sampledTable(200, 2, [](double x) { return 0.5 + 2 * x; }));
-    s.adopt(std::vector<Program>(40, line), 0, 0, 0, "");
-    s.step(false);
+    Search s(c, test::lineTable());
+    test::stepClones(s);
     return std::make_pair(s.progress().evaluations, s.refineStats());
   };
   const auto [on_evals, on] = run(64);
