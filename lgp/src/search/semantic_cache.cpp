@@ -60,7 +60,10 @@ ProgramKey effectiveKey(const Program& p, const std::vector<int>& effective) {
 }
 
 ProgramKey effectiveKey(const Program& p) {
-  return effectiveKey(p, effectiveIndices(p));
+  // Called for every offspring, on every thread: the index list keeps its capacity.
+  thread_local std::vector<int> effective;
+  effectiveIndices(p, effective);
+  return effectiveKey(p, effective);
 }
 
 SemanticCache::SemanticCache(size_t entries) {
