@@ -404,14 +404,21 @@ def run_channel(args, name, stem, weight, rows, out):
 # --- the report -------------------------------------------------------------------------------
 
 
+def code_span(text):
+    """A markdown code span that holds any text: a fence longer than its longest backtick run."""
+    longest = max((len(m) for m in re.findall(r"`+", text)), default=0)
+    pad = " " if longest else ""
+    return "`" * (longest + 1) + pad + text + pad + "`" * (longest + 1)
+
+
 def report(meta, results):
     L = ["# lgp and Operon on the split-sum DFG table", ""]
     L.append("CPU: %s. Load average at the start: %s. Budget %g s wall per engine, seed %d, "
              "1 thread each, both engines of a channel at once." % (
                  meta["cpu"], meta["loadavg"], meta["budget"], meta["seed"]))
     if meta.get("lgp_config_json"):
-        L.append("lgp config patch (`--config-json`): `%s`." % json.dumps(
-            meta["lgp_config_json"], separators=(",", ":")))
+        L.append("lgp config patch (`--config-json`): %s." % code_span(json.dumps(
+            meta["lgp_config_json"], separators=(",", ":"))))
     L.append("")
     L.append("| channel | lgp RMS | lgp RMS (f64) | lgp largest cost | lgp gens / evals "
              "| Operon RMS | Operon RMS (f64) | Operon length | Operon RMS, length <= %d (length) "
@@ -435,12 +442,12 @@ def report(meta, results):
     L.append("|---|---|---|---|---|---|---|")
     for x in results:
         g, o = x["lgp"], x["operon"]
-        L.append("| %s | lgp | %.1f | %.1f | %.1f | %d | cost %s: `%s` |" % (
+        L.append("| %s | lgp | %.1f | %.1f | %.1f | %d | cost %s: %s |" % (
             x["channel"], g["wall_s"], g["cpu_s"], g["search_s"], g["members"],
-            fmt(g["best_cost"], "g"), g["best_formula"]))
-        L.append("| %s | Operon | %.1f | %.1f | %s | %d | length %d: `%s` |" % (
+            fmt(g["best_cost"], "g"), code_span(g["best_formula"])))
+        L.append("| %s | Operon | %.1f | %.1f | %s | %d | length %d: %s |" % (
             x["channel"], o["wall_s"], o["cpu_s"], fmt(o["search_s"], ".1f"), o["members"],
-            o["best_length"], o["best_model"]))
+            o["best_length"], code_span(o["best_model"])))
     busy = [(x["channel"], e, r["cpu_s"] / r["wall_s"]) for x in results
             for e, r in (("lgp", x["lgp"]), ("Operon", x["operon"]))
             if r["cpu_s"] < 0.8 * r["wall_s"]]
