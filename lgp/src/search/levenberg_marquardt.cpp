@@ -116,12 +116,22 @@ struct ConstantFitter::Impl {
     int values() const { return static_cast<int>(self->num_vars + 1); }
     int operator()(const Eigen::VectorXd& x, Eigen::VectorXd& f) const {
       f.setZero(values());
-      f[0] = self->pass(x, false);
+      f[0] = self->evaluate(x, false);
       return 0;
     }
     int df(const Eigen::VectorXd& x, Eigen::MatrixXd& j) const {
-      self->pass(x, true);
+      self->evaluate(x, true);
       self->compress(j, self->lm.fvec());
+      if (self->projected) {
+        // The solver's step scaling: Eigen takes the column norms of the Jacobian, but a
+        // projected column can be 0 up to rounding (a constant the scales absorb: an offset,
+        // a common factor), which would let the step run off along it. Each constant's column
+        // before projection (its effect on the unscaled output) measures it instead; the
+        // largest seen, as Eigen does.
+        Eigen::VectorXd& d = self->lm.diag();
+        for (Eigen::Index v = 0; v < d.size(); ++v)
+          d[v] = std::max(d[v], self->ext_norm[v] > 0 ? self->ext_norm[v] : 1.0);
+      }
       return 0;
     }
   };
@@ -163,9 +173,19 @@ struct ConstantFitter::Impl {
     if (scaling) {
       raw.resize(static_cast<size_t>(k) * ds.paddedRows());
       fit_target.resize(static_cast<size_t>(k) * ds.paddedRows());
-      for (int o = 0; o < k; ++o)
+      fit_centred.resize(static_cast<size_t>(k) * ds.paddedRows());
+      t_mean.assign(k, 0.0);
+      const double* w = ds.weight();
+      for (int o = 0; o < k; ++o) {
+        double* t = fit_target.data() + o * ds.paddedRows();
+        for (size_t r = 0; r < ds.paddedRows(); ++r) {
+          t[r] = applyTransform(transforms[o], ds.target(o)[r]);
+          t_mean[o] += w[r] * t[r];
+        }
+        t_mean[o] /= ds.weightSum();
         for (size_t r = 0; r < ds.paddedRows(); ++r)
-          fit_target[o * ds.paddedRows() + r] = applyTransform(transforms[o], ds.target(o)[r]);
+          fit_centred[o * ds.paddedRows() + r] = t[r] - t_mean[o];
+      }
     }
     q.resize(k);
     fv.resize(k);
@@ -221,6 +241,160 @@ struct ConstantFitter::Impl {
     raw_valid = true;
   }
 
+  // A residual or Jacobian pass at the solver's point x. Plain mode: pass(x). Projected mode
+  // (reweighted rounds under linear scaling): the scales are not parameters but the Scorer's
+  // closed-form least-squares fit at x (variable projection, Golub & Pereyra 1973), so LM
+  // minimises the surrogate of exactly the error the Scorer measures.
+  double evaluate(const Eigen::VectorXd& x, bool jacobian) {
+    // A residual pass at the point whose plain residuals are at hand (a round's first pass,
+    // after reweighting there) costs no evaluation.
+    if (!jacobian && plain_valid && plain_theta.size() == x.size() && plain_theta == x) {
+      raw_valid = false;
+      double sse = 0;
+      for (size_t i = 0; i < plain.size(); ++i)
+        sse += (plain[i] * scale[i]) * (plain[i] * scale[i]);
+      return std::isfinite(sse) ? std::sqrt(sse) : kHugeResidual;
+    }
+    plain_valid = false;
+    double norm;
+    if (!projected) {
+      norm = pass(x, jacobian);
+    } else {
+      if (!projectScales(x)) {
+        ++non_finite;
+        if (jacobian) gram.setZero(x.size() + 1, x.size() + 1);
+        return kHugeResidual;
+      }
+      raw_valid = !jacobian;  // a residual pass reads the values projectScales computed
+      norm = pass(xe, jacobian);
+      if (jacobian) projectGram();
+    }
+    if (plain_valid) plain_theta = x;
+    return norm;
+  }
+
+  // Projected mode: the program's values at x (one evaluation, skipped when `raw` holds x's
+  // already: the solver asks for the Jacobian where it has just evaluated the residuals) and
+  // from them the Scorer's scales, into xe = [x | a_0 b_0 ...]. False if a constant or a
+  // value is not finite (the Scorer fails such a program).
+  bool projectScales(const Eigen::VectorXd& x) {
+    const int np = static_cast<int>(x.size());
+    const int k = jac.numOutputs();
+    const size_t n = ds.paddedRows();
+    if (!(values_valid && values_x == x)) {
+      values_valid = false;
+      for (int p = 0; p < np; ++p)
+        if (!std::isfinite(static_cast<float>(x[p]))) return false;
+      jac.setParameters(x.data());
+      for (size_t b = 0; b < ds.numBlocks(); ++b) {
+        jac.evalBlock(b, false);
+        for (int o = 0; o < k; ++o) std::copy_n(jac.value(o), bs, raw.data() + o * n + b * bs);
+      }
+      ++evaluations;
+      values_x = x;
+      values_valid = true;
+    }
+    xe.resize(np + 2 * k);
+    xe.head(np) = x;
+    const double* w = ds.weight();
+    const double sw = ds.weightSum();
+    f_mean.assign(k, 0.0);
+    f_ss.assign(k, 0.0);
+    for (int o = 0; o < k; ++o) {
+      const float* v = raw.data() + o * n;
+      const double* yc = fit_centred.data() + o * n;
+      double sf = 0;
+      float chk = 0;  // not 0 if a value is not finite
+#pragma omp simd reduction(+ : sf, chk)
+      for (size_t r = 0; r < n; ++r) {
+        sf += w[r] * v[r];
+        chk += v[r] * 0.0f;
+      }
+      if (!(chk == 0.0f)) return false;
+      const double mf = sf / sw;
+      double sff = 0, sfy = 0;
+#pragma omp simd reduction(+ : sff, sfy)
+      for (size_t r = 0; r < n; ++r) {
+        const double df = v[r] - mf;
+        sff += w[r] * df * df;
+        sfy += w[r] * df * yc[r];
+      }
+      // As Scorer::fitScale (scaleFromSums), in double: a = 0 for a flat or degenerate f.
+      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
+      double b0 = t_mean[o] - a * mf;
+      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
+        a = 0.0;
+        b0 = std::isfinite(t_mean[o]) ? t_mean[o] : 0.0;
+        sff = 0.0;  // the scales do not move with x here
+      }
+      if (a == 0.0) sff = 0.0;
+      xe[np + 2 * o] = a;
+      xe[np + 2 * o + 1] = b0;
+      f_mean[o] = mf;
+      f_ss[o] = sff;
+    }
+    sums.assign(static_cast<size_t>(k) * np * 3, 0.0);
+    return true;
+  }
+
+  // Projected mode, after pass(xe, true): folds the scale columns of the Gram matrix into the
+  // constants' columns. With s = a f + b and (a, b) the weighted least-squares fit of the
+  // centred T(y) on f, differentiating the normal equations gives, per constant k,
+  //   da = (sum w J (t - tm) - 2 a sum w J (f - fm)) / sum w (f - fm)^2,  db = -da fm - a Jm,
+  // so ds/dc_k = a J + da f + db: the pass's column for c_k plus da times the column for a
+  // plus db times the column for b. [J_proj | r] = [J_ext | r] T, hence gram <- T' gram T.
+  void projectGram() {
+    const int k = jac.numOutputs();
+    const Eigen::Index np = num_vars, ne = xe.size();
+    const double sw = ds.weightSum();
+    Eigen::MatrixXd t = Eigen::MatrixXd::Zero(ne + 1, np + 1);
+    for (Eigen::Index v = 0; v < np; ++v) t(v, v) = 1.0;
+    t(ne, np) = 1.0;
+    for (int o = 0; o < k; ++o) {
+      if (!(f_ss[o] > 0)) continue;
+      const double a = xe[np + 2 * o];
+      for (Eigen::Index v = 0; v < np; ++v) {
+        const double* sv = sums.data() + (static_cast<size_t>(o) * np + v) * 3;
+        const double da = (sv[1] - 2.0 * a * sv[2]) / f_ss[o];
+        t(np + 2 * o, v) = da;
+        t(np + 2 * o + 1, v) = -da * f_mean[o] - a * sv[0] / sw;
+      }
+    }
+    ext_norm.resize(np);
+    for (Eigen::Index v = 0; v < np; ++v) ext_norm[v] = std::sqrt(std::max(gram(v, v), 0.0));
+    const Eigen::MatrixXd full = gram.selfadjointView<Eigen::Upper>();
+    gram = t.transpose() * full * t;
+  }
+
+  // Projected mode, inside a Jacobian pass: per output and constant, the block's share of
+  // sum w J, sum w J (t - tm) and sum w J (f - fm) (projectGram's sums).
+  void accumulateSums(size_t r0, int nr) {
+    const int np = static_cast<int>(num_vars);
+    const size_t n = ds.paddedRows();
+    const double* w = ds.weight() + r0;
+    for (int o = 0; o < jac.numOutputs(); ++o) {
+      const float* f = jac.value(o);
+      const double* yc = fit_centred.data() + o * n + r0;
+      const double mf = f_mean[o];
+      for (int v = 0; v < np; ++v) {
+        if (!jac.hasDerivative(o, v)) continue;
+        const float* d = jac.derivative(o, v);
+        double s0 = 0, s1 = 0, s2 = 0;
+#pragma omp simd reduction(+ : s0, s1, s2)
+        for (int i = 0; i < nr; ++i) {
+          const double wj = w[i] * static_cast<double>(d[i]);
+          s0 += wj;
+          s1 += wj * yc[i];
+          s2 += wj * (static_cast<double>(f[i]) - mf);
+        }
+        double* sv = sums.data() + (static_cast<size_t>(o) * np + v) * 3;
+        sv[0] += s0;
+        sv[1] += s1;
+        sv[2] += s2;
+      }
+    }
+  }
+
   // One pass over the rows at x. Returns the residual norm (kHugeResidual if a residual or a
   // constant is not finite). With `jacobian`, also accumulates the Gram matrix gram = A'A of
   // A = [J | r] (rows x (n + 1)), block by block, without storing A.
@@ -230,14 +404,6 @@ struct ConstantFitter::Impl {
     const Eigen::Index nv = x.size();
     const size_t n = rows;
     const size_t nc = channels.size();
-    // A residual pass at the point whose plain residuals are at hand (a round's first pass,
-    // after reweighting there) costs no evaluation.
-    if (!jacobian && plain_valid && plain_x.size() == nv && plain_x == x) {
-      raw_valid = false;
-      double sse = 0;
-      for (size_t i = 0; i < nc * n; ++i) sse += (plain[i] * scale[i]) * (plain[i] * scale[i]);
-      return std::isfinite(sse) ? std::sqrt(sse) : kHugeResidual;
-    }
     plain_valid = false;
     bool ok = true;
     for (int p = 0; p < np; ++p) ok = ok && std::isfinite(static_cast<float>(x[p]));
@@ -266,6 +432,7 @@ struct ConstantFitter::Impl {
       const int nr = static_cast<int>(std::min<size_t>(bs, n - r0));
       const int na = static_cast<int>(nc) * nr;  // rows of this block in A: channel-major
       if (!from_raw) jac.evalBlock(blk, jacobian);
+      if (jacobian && projected) accumulateSums(r0, nr);
       const double* sw = sqrt_w.data() + r0;
       // Per output: g_o and q_o = sqrt(w) dg_o/ds_o (q_o = sqrt(w) without a transform).
       // Outputs alone in their channel get them fused into the residual loop below.
@@ -380,7 +547,6 @@ struct ConstantFitter::Impl {
       ++non_finite;
       return kHugeResidual;
     }
-    plain_x = x;
     plain_valid = true;
     return std::sqrt(sse);
   }
@@ -395,8 +561,8 @@ struct ConstantFitter::Impl {
   // The plain residuals (before reweighting) at `point`: at hand if the last pass was there,
   // else one residual pass. False if one is not finite.
   bool plainAtPoint() {
-    if (plain_valid && plain_x == point) return true;
-    return pass(point, false) < kHugeResidual;
+    if (plain_valid && plain_theta == point) return true;
+    return evaluate(point, false) < kHugeResidual;
   }
 
   double plainSse() const {
@@ -414,16 +580,20 @@ struct ConstantFitter::Impl {
     err.resize(n);
     chan_err.assign(nc, 0.0);
     double wsum = 0;
+#pragma omp simd reduction(+ : wsum)
     for (size_t r = 0; r < n; ++r) wsum += w[r];
     for (size_t c = 0; c < nc; ++c) {
       double* u = scale.data() + c * n;  // u first, sqrt(u v) below
       const double* y = chan_y.data() + c * n;
-      for (size_t r = 0; r < n; ++r)
-        err[r] = sqrt_w[r] > 0 ? std::fabs(plain[c * n + r]) / sqrt_w[r] : 0.0;
+      double* __restrict e = err.data();
+      const double* pl = plain.data() + c * n;
+#pragma omp simd
+      for (size_t r = 0; r < n; ++r) e[r] = sqrt_w[r] > 0 ? std::fabs(pl[r]) / sqrt_w[r] : 0.0;
       switch (cfg.metric) {
         case ErrorMetric::Rmse: {
           double sse = 0;
-          for (size_t r = 0; r < n; ++r) sse += w[r] * err[r] * err[r];
+#pragma omp simd reduction(+ : sse)
+          for (size_t r = 0; r < n; ++r) sse += w[r] * e[r] * e[r];
           chan_err[c] = std::sqrt(sse / wsum);
           std::fill_n(u, n, 1.0);
           break;
@@ -432,35 +602,43 @@ struct ConstantFitter::Impl {
         case ErrorMetric::MeanRel: {
           const bool rel = cfg.metric == ErrorMetric::MeanRel;
           double sum = 0, bsum = 0;
+#pragma omp simd reduction(+ : sum, bsum)
           for (size_t r = 0; r < n; ++r) {
             const double beta = rel ? 1.0 / std::max(std::fabs(y[r]), cfg.rel_floor) : 1.0;
-            sum += w[r] * beta * err[r];
+            sum += w[r] * beta * e[r];
             bsum += w[r] * beta;
           }
           chan_err[c] = sum / wsum;
           // An exact fit (every error 0) keeps the rows' base weights.
           const double eps = sum > 0 ? kL1Eps * sum / bsum : 1.0;
+#pragma omp simd
           for (size_t r = 0; r < n; ++r) {
             const double beta = rel ? 1.0 / std::max(std::fabs(y[r]), cfg.rel_floor) : 1.0;
-            u[r] = beta / std::max(err[r], eps);
+            u[r] = beta / std::max(e[r], eps);
           }
           break;
         }
         case ErrorMetric::MaxAbs: {
           double* l = lawson.data() + c * n;
           double mx = 0, top = 0, sum = 0;
-          for (size_t r = 0; r < n; ++r) mx = w[r] > 0 ? std::max(mx, err[r]) : mx;
+#pragma omp simd reduction(max : mx)
+          for (size_t r = 0; r < n; ++r) mx = w[r] > 0 ? std::max(mx, e[r]) : mx;
           chan_err[c] = mx;
+          const double inv = mx > 0 ? 1.0 / mx : 0.0;
+#pragma omp simd reduction(max : top)
           for (size_t r = 0; r < n; ++r) {
-            if (mx > 0) l[r] *= err[r] / mx;
+            if (mx > 0) l[r] *= e[r] * inv;
             top = std::max(top, l[r]);
           }
+#pragma omp simd reduction(+ : sum)
           for (size_t r = 0; r < n; ++r) {
             l[r] = std::max(l[r], kLawsonFloor * top);
             sum += w[r] * l[r];
           }
+          const double norm = sum > 0 ? 1.0 / sum : 0.0;
+#pragma omp simd
           for (size_t r = 0; r < n; ++r) {
-            l[r] = sum > 0 ? l[r] / sum : 1.0;  // a probability over the rows
+            l[r] = sum > 0 ? l[r] * norm : 1.0;  // a probability over the rows
             u[r] = l[r];
           }
           break;
@@ -488,9 +666,11 @@ struct ConstantFitter::Impl {
         }
       }
       double* u = scale.data() + c * n;
+#pragma omp simd
       for (size_t r = 0; r < n; ++r) u[r] = std::sqrt(v * u[r]);
     }
     double sy2 = 0;
+#pragma omp simd reduction(+ : sy2)
     for (size_t i = 0; i < nc * n; ++i) sy2 += (swy[i] * scale[i]) * (swy[i] * scale[i]);
     noise_floor = kNoiseFloor * sy2;
     weighted = true;
@@ -508,6 +688,8 @@ struct ConstantFitter::Impl {
     lm.setXtol(kXtol);
     lm.setGtol(0.0);
     lm.setMaxfev(1 + kEvaluationsPerIteration * iterations);
+    lm.setExternalScaling(projected);
+    if (projected) lm.diag().setConstant(point.size(), std::numeric_limits<double>::min());
     auto status = lm.minimizeInit(point);
     if (status != Eigen::LevenbergMarquardtSpace::NotStarted || !(lm.fnorm() < kHugeResidual))
       return run;
@@ -546,17 +728,17 @@ struct ConstantFitter::Impl {
 
   // Columns of A = [J | r] that can be nonzero in channel c's rows (ascending; the residual
   // last): a channel sees only the constants and scales of its outputs.
-  void findActiveColumns() {
+  void findActiveColumns(Eigen::Index nvars) {
     const int np = jac.numParameters();
     active.assign(channels.size(), {});
     for (size_t c = 0; c < channels.size(); ++c) {
-      for (Eigen::Index v = 0; v < num_vars; ++v) {
+      for (Eigen::Index v = 0; v < nvars; ++v) {
         bool on = false;
         for (const auto& [o, w] : channels[c])
           on = on || (v < np ? jac.hasDerivative(o, static_cast<int>(v)) : (v - np) / 2 == o);
         if (on) active[c].push_back(static_cast<int>(v));
       }
-      active[c].push_back(static_cast<int>(num_vars));
+      active[c].push_back(static_cast<int>(nvars));
     }
   }
 
@@ -651,13 +833,24 @@ struct ConstantFitter::Impl {
   int bs = 0;
   std::vector<std::vector<std::pair<int, double>>> channels;  // (output, weight), nonzero
   std::vector<double> sqrt_w;                                 // per real row
-  std::vector<double> swy;         // [channel * rows + r]: sqrt(w) * channel target
-  std::vector<double> fit_target;  // linear scaling: T_o(y) per output, padded rows
-  std::vector<float> raw;          // linear scaling: raw outputs of the starting constants
-  bool raw_valid = false;          // raw holds the outputs at the point being evaluated
-  std::vector<double> g, gp;       // per output, one block: g_o and q_o
-  std::vector<double> res_block;   // per channel, one block: residuals of a trial pass
-  std::vector<double> block_a;     // one block of A = [J | r], column-major, channel-major rows
+  std::vector<double> swy;          // [channel * rows + r]: sqrt(w) * channel target
+  std::vector<double> fit_target;   // linear scaling: T_o(y) per output, padded rows
+  std::vector<double> fit_centred;  // linear scaling: T_o(y) - t_mean[o], padded rows
+  std::vector<double> t_mean;       // linear scaling: weighted mean of T_o(y)
+  bool projected = false;           // the scales are projected out (see evaluate())
+  Eigen::VectorXd xe;               // projected: [x | a_0 b_0 ...] of the last pass
+  Eigen::VectorXd values_x;         // projected: the point whose values `raw` holds
+  bool values_valid = false;
+  std::vector<double> f_mean, f_ss;  // projected: per output, weighted mean and centred sum of
+                                     // squares of f (0 where the scales do not move)
+  std::vector<double> sums;          // projected: accumulateSums' [output][constant][3]
+  Eigen::VectorXd ext_norm;          // projected: per constant, its Jacobian column's norm
+                                     // before projection (the solver's step scaling)
+  std::vector<float> raw;            // linear scaling: raw outputs of the starting constants
+  bool raw_valid = false;            // raw holds the outputs at the point being evaluated
+  std::vector<double> g, gp;         // per output, one block: g_o and q_o
+  std::vector<double> res_block;     // per channel, one block: residuals of a trial pass
+  std::vector<double> block_a;       // one block of A = [J | r], column-major, channel-major rows
   std::vector<std::vector<int>> active;  // per channel: columns of A that can be nonzero
   std::vector<const double*> q;          // per output: q_o of the current block
   std::vector<const float*> fv;          // per output: f_o of the current block
@@ -673,8 +866,8 @@ struct ConstantFitter::Impl {
   std::vector<double> scale;          // [channel * rows + r]: reweighting of the residual (1: none)
   bool weighted = false;              // scale is not all 1
   std::vector<double> plain;          // [channel * rows + r]: residuals of the last pass, unscaled
-  Eigen::VectorXd plain_x;            // the point of `plain`
-  bool plain_valid = false;           // plain holds a finite pass at plain_x
+  Eigen::VectorXd plain_theta;        // the solver's point of `plain`
+  bool plain_valid = false;           // plain holds a finite pass at plain_theta
   std::vector<double> lawson;         // max_abs: Lawson's row weights, per channel a probability
   std::vector<double> err, chan_err;  // reweight's |e| of one channel, error per channel
   std::unique_ptr<Scorer> scorer;     // judges reweighted rounds
@@ -690,11 +883,15 @@ ConstantFitter::~ConstantFitter() = default;
 ConstantFitter::ConstantFitter(ConstantFitter&&) noexcept = default;
 
 bool ConstantFitter::reweights(const LevenbergMarquardtConfig& c) const {
-  // Under linear scaling the Scorer refits each output's scale by least squares, whatever LM
-  // found for it: constants fitted with scales tuned to the error are judged with other scales
-  // (on the DFG table that lost to plain least squares and the Nelder-Mead polish).
-  return c.objective == LmObjective::Configured && !impl_->scaling &&
-         !(impl_->cfg.metric == ErrorMetric::Rmse && impl_->channels.size() == 1);
+  if (c.objective == LmObjective::LeastSquares) return false;
+  if (c.objective == LmObjective::Auto && impl_->scaling) return false;
+  if (impl_->cfg.metric != ErrorMetric::Rmse || impl_->channels.size() != 1) return true;
+  // rmse on one channel is plain least squares, except under linear scaling of a transformed
+  // output: the Scorer fits its scale on the transformed scale, the error is on the original
+  // one, so the scale is projected out as the Scorer fits it (rounds of weight 1).
+  bool transformed = false;
+  for (TargetTransform t : impl_->transforms) transformed |= t != TargetTransform::None;
+  return impl_->scaling && transformed;
 }
 
 ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig& c) {
@@ -704,20 +901,24 @@ ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig
   const int np = m.jac.numParameters();
   if (np == 0) return res;
   const int k = m.jac.numOutputs();
-  m.num_vars = np + (m.scaling ? 2 * k : 0);
-  if (m.num_res <= m.num_vars || k != m.ds.numOutputs()) return res;
+  const bool rounds = reweights(c);
+  m.projected = m.scaling && rounds;
+  const Eigen::Index num_ext = np + (m.scaling ? 2 * k : 0);
+  m.num_vars = m.projected ? np : num_ext;
+  if (m.num_res <= num_ext || k != m.ds.numOutputs()) return res;
   m.evaluations = 0;
   m.non_finite = 0;
   m.plain_valid = false;
+  m.values_valid = false;
   m.point.resize(m.num_vars);
   for (int i = 0; i < np; ++i) m.point[i] = p.constants[m.jac.parameters()[i]];
-  m.findActiveColumns();
-  if (m.scaling) m.initialScales(m.point, np);
+  m.findActiveColumns(num_ext);
+  if (m.scaling && !m.projected) m.initialScales(m.point, np);
   auto adopt = [&](const Eigen::VectorXd& x) {
     for (int i = 0; i < np; ++i) p.constants[m.jac.parameters()[i]] = static_cast<float>(x[i]);
   };
 
-  if (!reweights(c)) {
+  if (!rounds) {
     m.unweight();
     const Impl::Run run = m.solve(c.max_iterations, c.tolerance);
     res.evaluations = m.evaluations;

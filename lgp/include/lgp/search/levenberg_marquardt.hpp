@@ -12,15 +12,19 @@
 // where w_r is the row weight, W_{c,o} the channel weights, y the original targets and
 // g_o = invertTransform(T_o, s_o) with the protected inverses of objectives.cpp (log: exp(s),
 // sqrt: s > 0 ? s^2 : 0, rcp: 1/guard(s)). Without linear scaling s_o = f_o, the program's
-// output o. With it, s_o = a_o f_o + b_o, where a_o and b_o are extra LM parameters started
-// at the closed-form weighted least-squares fit of T_o(y_o) on f_o (what Scorer does) and
-// discarded afterwards (the Scorer refits them in closed form).
+// output o. With it, s_o = a_o f_o + b_o. For plain least squares a_o and b_o are extra LM
+// parameters started at the closed-form weighted least-squares fit of T_o(y_o) on f_o (what
+// Scorer does) and discarded afterwards (the Scorer refits them in closed form). For reweighted
+// rounds they are that closed-form fit at every point (variable projection, Golub & Pereyra
+// 1973): LM moves the constants only, with the Jacobian of the projected residual, so every
+// round minimises its surrogate of exactly the error the Scorer measures.
 //
 // Objective. LmObjective::LeastSquares minimises the sum of squares above, whatever the metric.
-// LmObjective::Configured (the default) fits the configured error: plain least squares for
-// rmse on one channel and under linear scaling (the Scorer fits scales by least squares), else
-// rounds of iteratively reweighted least squares, residual_{c,r} scaled by sqrt(u_{c,r} v_c) from
-// the residuals e at the round's starting point:
+// LmObjective::Configured fits the configured error: plain least squares for rmse on one
+// channel (but for a transformed output under linear scaling, whose scale the Scorer fits on
+// the transformed scale: rounds of weight 1 there), else rounds of iteratively reweighted least
+// squares, residual_{c,r} scaled by sqrt(u_{c,r} v_c) from the residuals e at the round's
+// starting point:
 //   mae       u = 1 / max(|e|, eps)                          (IRLS for the L1 norm)
 //   mean_rel  u = 1 / (max(|y|, rel_floor) max(|e|, eps))    (mae of the relative error,
 //                                                             the Scorer's row weights)
@@ -53,14 +57,18 @@ namespace lgp {
 
 enum class LmObjective : uint8_t {
   LeastSquares,  // the weighted sum of squares, whatever the metric
-  Configured     // the configured error (see above): reweighted rounds where it differs
+  Configured,    // the configured error (see above): reweighted rounds where it differs
+  // Configured, but LeastSquares under linear scaling: on the DFG runs of
+  // docs/constant-fitting.md the projected rounds did not beat least squares with the
+  // Nelder-Mead polish there.
+  Auto
 };
 
 struct LevenbergMarquardtConfig {
   int max_iterations = 10;   // solver iterations (each = 1 Jacobian pass + >= 1 residual pass),
                              // all rounds together
   double tolerance = 1e-10;  // relative reduction of the sum of squares at which to stop
-  LmObjective objective = LmObjective::Configured;
+  LmObjective objective = LmObjective::Auto;
   int max_rounds = 8;  // reweighting rounds at most (Configured, where it differs)
   Status validate() const;
 };
