@@ -92,7 +92,8 @@ TEST(Config, OutOfRangeNamesItsPath) {
 TEST(Config, LmMetricSwitch) {
   auto d = parseRunConfig(minimal(), ".");
   ASSERT_TRUE(d) << d.error();
-  EXPECT_EQ(d->search.refine.lm_metric, LmObjective::Configured);
+  EXPECT_EQ(d->search.refine.lm_metric, LmObjective::Auto);
+  EXPECT_EQ(toJson(*d)["search"]["refine"]["lm_metric"], "auto");
   json j = minimal();
   j["search"] = {{"refine", {{"lm_metric", "least_squares"}}}};
   auto c = parseRunConfig(j, ".");
@@ -100,7 +101,7 @@ TEST(Config, LmMetricSwitch) {
   EXPECT_EQ(c->search.refine.lm_metric, LmObjective::LeastSquares);
   EXPECT_EQ(toJson(*c)["search"]["refine"]["lm_metric"], "least_squares");
   j["search"] = {{"refine", {{"lm_metric", "l1"}}}};
-  EXPECT_NE(errorOf(j).find("/search/refine/lm_metric: must be \"configured\" or"),
+  EXPECT_NE(errorOf(j).find("/search/refine/lm_metric: must be \"auto\", \"configured\" or"),
             std::string::npos)
       << errorOf(j);
 }

@@ -145,8 +145,10 @@ TEST(SemanticCache, OneKeyOneScore) {
   EXPECT_GE(finite, 30);
 }
 
-RunConfig searchConfig(int cache, ErrorMetric metric, bool scaling) {
+RunConfig searchConfig(int cache, ErrorMetric metric, bool scaling,
+                       LmObjective lm = LmObjective::Auto) {
   RunConfig c;
+  c.search.refine.lm_metric = lm;
   c.data.path = "in-memory";
   c.objectives.metric = metric;
   c.search.population = 80;
@@ -173,17 +175,21 @@ Outcome runSearch(const RunConfig& c) {
 }
 
 // On and off: the same front and the same evaluation count, for the metrics where LM fits the
-// error (rmse, max_abs with lm_metric configured) and under linear scaling; with hits.
+// error (rmse, max_abs with reweighted rounds) and under linear scaling (least squares, and
+// max_abs with lm_metric configured: projected scales); with hits.
 TEST(SemanticCache, SearchWithCacheEqualsSearchWithout) {
   struct Case {
     ErrorMetric metric;
     bool scaling;
+    LmObjective lm;
   };
-  for (const Case k : {Case{ErrorMetric::Rmse, false}, Case{ErrorMetric::MaxAbs, false},
-                       Case{ErrorMetric::Rmse, true}}) {
+  for (const Case k : {Case{ErrorMetric::Rmse, false, LmObjective::Auto},
+                       Case{ErrorMetric::MaxAbs, false, LmObjective::Auto},
+                       Case{ErrorMetric::Rmse, true, LmObjective::Auto},
+                       Case{ErrorMetric::MaxAbs, true, LmObjective::Configured}}) {
     SCOPED_TRACE(std::string(toString(k.metric)) + (k.scaling ? " scaled" : ""));
-    const Outcome on = runSearch(searchConfig(1 << 12, k.metric, k.scaling));
-    const Outcome off = runSearch(searchConfig(0, k.metric, k.scaling));
+    const Outcome on = runSearch(searchConfig(1 << 12, k.metric, k.scaling, k.lm));
+    const Outcome off = runSearch(searchConfig(0, k.metric, k.scaling, k.lm));
     std::printf("%s%s: score hits %llu, LM replays %llu, LM fits %llu (without: %llu)\n",
                 std::string(toString(k.metric)).c_str(), k.scaling ? " scaled" : "",
                 static_cast<unsigned long long>(on.stats.cache_score_hits),

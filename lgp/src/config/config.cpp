@@ -18,7 +18,15 @@ std::string_view toString(RefineMethod m) {
 }
 
 std::string_view toString(LmObjective o) {
-  return o == LmObjective::LeastSquares ? "least_squares" : "configured";
+  switch (o) {
+    case LmObjective::LeastSquares:
+      return "least_squares";
+    case LmObjective::Configured:
+      return "configured";
+    case LmObjective::Auto:
+      break;
+  }
+  return "auto";
 }
 std::string_view toString(ArchiveRefineOrder o) {
   return o == ArchiveRefineOrder::Oldest ? "oldest" : "accurate";
@@ -331,13 +339,15 @@ void parseRefine(const nlohmann::json& j, RefineSchedule& r) {
   o.integer("de_evaluations", r.de_evaluations, 1, 1 << 30);
   if (o.has("lm_metric")) {
     const auto& v = o.at("lm_metric");
-    if (v == "configured")
+    if (v == "auto")
+      r.lm_metric = LmObjective::Auto;
+    else if (v == "configured")
       r.lm_metric = LmObjective::Configured;
     else if (v == "least_squares")
       r.lm_metric = LmObjective::LeastSquares;
     else
       fail("/search/refine/lm_metric",
-           "must be \"configured\" or \"least_squares\" (got " + v.dump() + ")");
+           "must be \"auto\", \"configured\" or \"least_squares\" (got " + v.dump() + ")");
   }
   o.finish();
 }

@@ -118,9 +118,10 @@ struct RefineSchedule {
   NelderMeadConfig nm;             // full refinement: budget, restarts and coefficients
   RefineMethod method = RefineMethod::NelderMead;  // of the full (archive) refinement
   int de_evaluations = 300;                        // DE budget before Nelder-Mead (de+nm)
-  // What LM fits: the configured error (reweighted rounds, levenberg_marquardt.hpp) or the
-  // plain sum of squares.
-  LmObjective lm_metric = LmObjective::Configured;
+  // What LM fits: the configured error (reweighted rounds, levenberg_marquardt.hpp), the
+  // plain sum of squares, or auto: the configured error without linear scaling, the sum of
+  // squares with it (measured, docs/constant-fitting.md).
+  LmObjective lm_metric = LmObjective::Auto;
   // Which unrefined members a period serves first ("oldest": storage order; "accurate":
   // lowest error first). It decides who waits only when more than archive_max members are
   // unrefined; on the DFG ablation (3 seeds, archive_max 4) "accurate" did not do better, so
