@@ -84,6 +84,22 @@ inline void inverse(double s, double& g, double& dg) {
   }
 }
 
+// The closed-form least-squares scale a f + b from the centred weighted sums, in double, with
+// the Scorer's guards (objectives.cpp, scaleFromSums): a = 0 (offset only) for a flat or
+// degenerate f.
+struct Scale {
+  double a, b;
+};
+Scale closedFormScale(double sw, double mf, double my, double sff, double sfy) {
+  double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
+  double b = my - a * mf;
+  if (!std::isfinite(a) || !std::isfinite(b) || std::fabs(a) > 1e30 || std::fabs(b) > 1e30) {
+    a = 0.0;
+    b = std::isfinite(my) ? my : 0.0;
+  }
+  return {a, b};
+}
+
 // Calls fn(std::integral_constant<TargetTransform, t>{}).
 template <class Fn>
 void withTransform(TargetTransform t, Fn&& fn) {
@@ -229,14 +245,9 @@ struct ConstantFitter::Impl {
         sff += w[r] * df * df;
         sfy += w[r] * df * (y[r] - my);
       }
-      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
-      double b0 = my - a * mf;
-      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
-        a = 0.0;
-        b0 = std::isfinite(my) ? my : 0.0;
-      }
-      x[p0 + 2 * o] = a;
-      x[p0 + 2 * o + 1] = b0;
+      const Scale sc = closedFormScale(sw, mf, my, sff, sfy);
+      x[p0 + 2 * o] = sc.a;
+      x[p0 + 2 * o + 1] = sc.b;
     }
     raw_valid = true;
   }
@@ -319,19 +330,11 @@ struct ConstantFitter::Impl {
         sff += w[r] * df * df;
         sfy += w[r] * df * yc[r];
       }
-      // As Scorer::fitScale (scaleFromSums), in double: a = 0 for a flat or degenerate f.
-      double a = sff > 1e-12 * sw * (1.0 + mf * mf) ? sfy / sff : 0.0;
-      double b0 = t_mean[o] - a * mf;
-      if (!std::isfinite(a) || !std::isfinite(b0) || std::fabs(a) > 1e30 || std::fabs(b0) > 1e30) {
-        a = 0.0;
-        b0 = std::isfinite(t_mean[o]) ? t_mean[o] : 0.0;
-        sff = 0.0;  // the scales do not move with x here
-      }
-      if (a == 0.0) sff = 0.0;
-      xe[np + 2 * o] = a;
-      xe[np + 2 * o + 1] = b0;
+      const Scale sc = closedFormScale(sw, mf, t_mean[o], sff, sfy);
+      xe[np + 2 * o] = sc.a;
+      xe[np + 2 * o + 1] = sc.b;
       f_mean[o] = mf;
-      f_ss[o] = sff;
+      f_ss[o] = sc.a != 0.0 ? sff : 0.0;  // 0: the scales do not move with x here
     }
     sums.assign(static_cast<size_t>(k) * np * 3, 0.0);
     return true;
@@ -882,16 +885,23 @@ ConstantFitter::ConstantFitter(const Dataset& ds, const ErrorConfig& cfg)
 ConstantFitter::~ConstantFitter() = default;
 ConstantFitter::ConstantFitter(ConstantFitter&&) noexcept = default;
 
-bool ConstantFitter::reweights(const LevenbergMarquardtConfig& c) const {
-  if (c.objective == LmObjective::LeastSquares) return false;
-  if (c.objective == LmObjective::Auto && impl_->scaling) return false;
-  if (impl_->cfg.metric != ErrorMetric::Rmse || impl_->channels.size() != 1) return true;
-  // rmse on one channel is plain least squares, except under linear scaling of a transformed
-  // output: the Scorer fits its scale on the transformed scale, the error is on the original
-  // one, so the scale is projected out as the Scorer fits it (rounds of weight 1).
+LmPlan lmPlan(LmObjective o, const ErrorConfig& cfg, size_t channels) {
   bool transformed = false;
-  for (TargetTransform t : impl_->transforms) transformed |= t != TargetTransform::None;
-  return impl_->scaling && transformed;
+  for (TargetTransform t : cfg.transforms) transformed |= t != TargetTransform::None;
+  const bool plain_is_error =
+      cfg.metric == ErrorMetric::Rmse && channels == 1 && !(cfg.linear_scaling && transformed);
+  LmPlan plan;
+  // Auto is Configured without linear scaling and LeastSquares with it. Configured reweights
+  // wherever plain least squares is not the error; under linear scaling of a transformed
+  // output that is rounds of weight 1 with the scale projected out as the Scorer fits it.
+  plan.rounds = o == LmObjective::Configured || (o == LmObjective::Auto && !cfg.linear_scaling);
+  plan.rounds = plan.rounds && !plain_is_error;
+  plan.fits_error = plan.rounds || plain_is_error;
+  return plan;
+}
+
+bool ConstantFitter::reweights(const LevenbergMarquardtConfig& c) const {
+  return lmPlan(c.objective, impl_->cfg, impl_->channels.size()).rounds;
 }
 
 ConstantFitResult ConstantFitter::fit(Program& p, const LevenbergMarquardtConfig& c) {
