@@ -45,18 +45,7 @@ Search::Search(RunConfig cfg, Table table)
   {
     const size_t channels =
         err_cfg_.channels.empty() ? table_.numOutputs() : err_cfg_.channels.size();
-    bool transformed = false;
-    for (TargetTransform t : err_cfg_.transforms) transformed |= t != TargetTransform::None;
-    // Plain least squares is the error for rmse on one channel, except that the Scorer refits
-    // the scale of a transformed output on the transformed scale, LM on the original one.
-    // lm_metric configured fits the error in every case: reweighted rounds judged by the
-    // Scorer, with the scales projected out under linear scaling; auto does so without linear
-    // scaling (ConstantFitter::reweights).
-    const bool plain_is_error = err_cfg_.metric == ErrorMetric::Rmse && channels == 1;
-    const LmObjective lm = cfg_.search.refine.lm_metric;
-    lm_fits_the_error_ = lm == LmObjective::Configured ||
-                         (lm == LmObjective::Auto && !err_cfg_.linear_scaling) ||
-                         (plain_is_error && !(err_cfg_.linear_scaling && transformed));
+    lm_fits_the_error_ = lmPlan(cfg_.search.refine.lm_metric, err_cfg_, channels).fits_error;
   }
   domain_ = tableDomain(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing

@@ -73,6 +73,18 @@ struct LevenbergMarquardtConfig {
   Status validate() const;
 };
 
+// What LM with objective `o` does for an error configuration with `channels` error channels
+// (ErrorConfig::channels, or one per output without them): reweighted rounds judged by the
+// Scorer (`rounds`), and whether what it minimises is the error the Scorer measures
+// (`fits_error`: rounds, or plain least squares where that is the error: rmse on one channel,
+// but not for a transformed output under linear scaling, whose scale the Scorer fits on the
+// transformed scale).
+struct LmPlan {
+  bool rounds = false;
+  bool fits_error = false;
+};
+LmPlan lmPlan(LmObjective o, const ErrorConfig& cfg, size_t channels);
+
 struct ConstantFitResult {
   double sse_before = std::numeric_limits<double>::infinity();  // weighted sum of squared
   double sse_after = std::numeric_limits<double>::infinity();   // residuals (see above)
