@@ -274,7 +274,6 @@ void Interpreter::reserve(int slots) {
   if (slots <= capacity_slots_) return;
   capacity_slots_ = std::max(slots, capacity_slots_ * 2);
   scratch_.reset(allocAligned(static_cast<size_t>(capacity_slots_) * block_));
-  ptrs_.resize(capacity_slots_ + 1);
   filled_id_ = 0;
 }
 
@@ -283,6 +282,8 @@ const std::vector<const float*>& Interpreter::evalBlock(const BoundProgram& bp, 
   const int n = rows > 0 ? std::min(rows, block_) : block_;
   const int scratch_slots = bp.num_slots - bp.num_inputs;
   reserve(scratch_slots);
+  // The operand table holds the inputs' columns too, not only the scratch slots.
+  if (ptrs_.size() < static_cast<size_t>(bp.num_slots)) ptrs_.resize(bp.num_slots);
   float* scratch = scratch_.get();
   const size_t off = block * static_cast<size_t>(block_);
   for (int i = 0; i < bp.num_inputs; ++i) ptrs_[i] = ds.input(i) + off;
