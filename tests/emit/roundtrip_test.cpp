@@ -17,6 +17,7 @@
 #include "lgp/config/config.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/emit/parser.hpp"
+#include "lgp/eval/fidelity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/semantics.hpp"
 #include "lgp/search/search.hpp"
@@ -459,6 +460,77 @@ TEST(EmitRoundTrip, RandomProgramsStayFiniteAtTheDomainEdges) {
               << emitProgram(cases[c].input, Language::Cpp, cases[c].opts)->function;
         }
   }
+}
+
+// What is exported is what was scored (search-4): on tables and seeds under linear scaling,
+// the C++ `lgp emit` writes for each front member, compiled and run over the table, has the
+// member's scored float32 error within the fidelity bound (2^-14 of the target's RMS), and
+// the double reference error agrees with it.
+TEST(EmitRoundTrip, EmittedCppReproducesTheScoredErrorAcrossTablesAndSeeds) {
+  Table step;
+  step.input_names = {"x", "z"};
+  step.output_names = {"y"};
+  step.inputs.resize(2);
+  step.outputs.resize(1);
+  for (int i = 0; i < 32; ++i)
+    for (int j = 0; j < 8; ++j) {
+      const double x = (i + 0.5) / 32, z = (j + 0.5) / 8;
+      step.inputs[0].push_back(x);
+      step.inputs[1].push_back(z);
+      step.outputs[0].push_back(std::sqrt(x) * (1 + z * z) + (x > 0.6 ? 0.3 : 0.0));
+    }
+  const std::vector<std::pair<std::string, Table>> tables = {{"dfg", test::loadDfg()},
+                                                             {"bumpy", step}};
+  int members = 0;
+  for (const auto& [tname, t] : tables) {
+    const auto tol = fidelityTolerances(t);
+    for (int seed : {1, 2}) {
+      nlohmann::json cj = {{"data", {{"path", "t.csv"}}},
+                           {"program", {{"max_length", 16}}},
+                           {"search",
+                            {{"population", 96},
+                             {"generations", 25},
+                             {"seed", seed},
+                             {"threads", 1},
+                             {"linear_scaling", true}}}};
+      auto cfg = parseRunConfig(cj, test::dataDir());
+      ASSERT_TRUE(cfg.hasValue()) << cfg.error();
+      Search s(*cfg, t);
+      s.run();
+      const auto& front = s.front();
+      ASSERT_FALSE(front.empty());
+      std::vector<Case> cases;
+      for (size_t i = 0; i < front.size(); ++i) {
+        Case c;
+        c.fn = tname + "_s" + std::to_string(seed) + "_m" + std::to_string(i);
+        c.program = front[i].program;
+        c.input = inputFor(front[i].program, t);
+        c.input.output_names = t.output_names;
+        cases.push_back(c);
+      }
+      auto res = compileAndRun("scored_" + tname + std::to_string(seed), cases, rowsOf(t),
+                               Precision::Float);
+      ASSERT_TRUE(res.ok) << res.log;
+      for (size_t i = 0; i < front.size(); ++i) {
+        const auto& e = front[i];
+        for (size_t o = 0; o < t.outputs.size(); ++o) {
+          double sse = 0;
+          for (size_t r = 0; r < t.rows(); ++r) {
+            const double d = res.out[i][o][r] - t.outputs[o][r];
+            sse += d * d;
+          }
+          const double rmse = std::sqrt(sse / static_cast<double>(t.rows()));
+          EXPECT_NEAR(rmse, e.metrics[o].rmse, tol[o])
+              << cases[i].fn << " output " << o << ": " << e.formula;
+          EXPECT_NEAR(e.metrics_ref[o].rmse, e.metrics[o].rmse, tol[o])
+              << cases[i].fn << " output " << o << ": " << e.formula;
+        }
+        ++members;
+      }
+    }
+  }
+  std::cout << members << " members: emitted C++ error = scored error within the bound\n";
+  EXPECT_GE(members, 12);
 }
 
 }  // namespace

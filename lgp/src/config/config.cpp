@@ -244,6 +244,7 @@ void parseProgram(const nlohmann::json& j, ProgramConfig& p) {
   o.integer("init_max_length", p.init_max_length, 1, 255);
   o.number("const_min", p.const_min, -1e30, 1e30);
   o.number("const_max", p.const_max, -1e30, 1e30);
+  o.integer("genes", p.genes, 1, kMaxGenes);
   o.finish();
 }
 
@@ -562,19 +563,37 @@ Status RunConfig::validate() const {
     if (!isOutput(search.multi_output.first))
       return Status::error(p + ": '" + search.multi_output.first + "' is not one of data.outputs");
   }
-  if (search.linear_scaling && program.max_length + static_cast<int>(data.outputs.size()) > 255)
+  if (program.genes > 1 && !search.linear_scaling)
+    return Status::error("/program/genes: the output layer needs search.linear_scaling: true");
+  if (program.genes > 1 && search.multi_output.mode == MultiOutputMode::TwoStep)
+    return Status::error("/program/genes: two_step multi-output fits one gene per output");
+  const int outputs = static_cast<int>(data.outputs.size());
+  if (search.linear_scaling && program.max_length + outputs * program.genes > 255)
     return Status::error(
-        "/program/max_length: linear scaling adds one opcode per output; "
-        "max_length + outputs must be <= 255");
+        "/program/max_length: linear scaling adds up to genes opcodes per output; "
+        "max_length + outputs * genes must be <= 255");
+  if (search.linear_scaling && program.num_constants + outputs * (program.genes + 1) > 255)
+    return Status::error(
+        "/program/constants: linear scaling adds up to genes + 1 constants per output; "
+        "constants + outputs * (genes + 1) must be <= 255");
   return Status::ok();
 }
 
 ProgramShape RunConfig::shape(int num_inputs, int num_outputs) const {
   ProgramShape s;
+  // Under linear scaling each output reads `genes` program results, and the exported program
+  // adds the layer's opcodes and constants: the shape leaves them room below 255 (validate()
+  // refuses a config that asks for more where data.outputs names the outputs).
+  const int genes = search.linear_scaling ? program.genes : 1;
   s.num_inputs = num_inputs;
-  s.num_outputs = num_outputs;
-  s.max_length = std::max(program.max_length, num_outputs);
+  s.num_outputs = num_outputs * genes;
+  s.genes = genes;
+  s.max_length = std::max(program.max_length, s.num_outputs);
   s.num_constants = program.num_constants;
+  if (search.linear_scaling) {
+    s.max_length = std::max(s.num_outputs, std::min(s.max_length, 255 - num_outputs * genes));
+    s.num_constants = std::max(0, std::min(s.num_constants, 255 - num_outputs * (genes + 1)));
+  }
   s.output_mode = program.output_mode;
   s.ops = OpSet();
   for (Op op : program.ops.empty() ? defaultOps() : program.ops) s.ops.insert(op);
@@ -598,6 +617,7 @@ ErrorConfig RunConfig::errorConfig(const std::vector<std::string>& output_names)
   e.metric = objectives.metric;
   e.combine = objectives.combine;
   e.rel_floor = objectives.rel_floor;
+  e.genes = program.genes;  // used under linear scaling only
   for (const auto& n : output_names) {
     auto it = data.transforms.find(n);
     e.transforms.push_back(it == data.transforms.end() ? TargetTransform::None : it->second);
@@ -691,7 +711,7 @@ nlohmann::json toJson(const RunConfig& c) {
   json channels = json::array();
   for (const auto& ch : c.objectives.channels)
     channels.push_back({{"name", ch.name}, {"weights", ch.weights}});
-  return {{"data", data},
+  json out = {{"data", data},
           {"program",
            {{"max_length", c.program.max_length},
             {"constants", c.program.num_constants},
@@ -792,6 +812,9 @@ nlohmann::json toJson(const RunConfig& c) {
             {"checkpoint_interval_s", c.output.checkpoint_interval_s}}},
           {"mpi", {{"np", c.mpi.np}, {"migration", std::string(toString(c.mpi.migration))}}},
           {"references", c.references}};
+  // Written only where set, so that the digests of configs without it stay as they were.
+  if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
+  return out;
 }
 
 }  // namespace lgp

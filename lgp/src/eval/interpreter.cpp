@@ -205,6 +205,7 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
     const Instr& ins = p.code[eff[k]];
     Step s{};
     s.kernel = kernelFor(ins.op);
+    s.op = ins.op;
     s.dst = reg_base + static_cast<int32_t>(k);
     reg_slot_[eff[k]] = s.dst;
     for (int a = 0; a < kMaxArity; ++a) {
@@ -246,6 +247,8 @@ void BoundProgram::bind(const Program& p, int n_inputs) {
         }
       if (i1 >= 0 && i2 >= 0 && mask != 0 && readers_[s1.dst] == uses) {
         s1.pair = kPairKernels[static_cast<size_t>(i1 * 42 + i2 * 7 + mask - 1)];
+        s1.op2 = o2;
+        s1.mask = static_cast<uint8_t>(mask);
         for (int a = 0; a < 3; ++a) s1.src2[a] = s2.src[a] == s1.dst ? s2.src[0] : s2.src[a];
         // Operands the pair kernel reads but ignores must still be valid columns.
         for (int a = 0; a < 3; ++a)

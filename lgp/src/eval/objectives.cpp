@@ -5,6 +5,7 @@
 #include <cstring>
 
 #include "lgp/eval/semantics.hpp"
+#include "output_layer.hpp"
 
 namespace lgp {
 
@@ -20,21 +21,6 @@ std::optional<E> fromNames(std::string_view s, const std::string_view (&names)[N
   return std::nullopt;
 }
 
-// Inverse transform with the operators' protected semantics, in T precision.
-template <class T>
-inline T invert(TargetTransform t, T v) {
-  switch (t) {
-    case TargetTransform::None:
-      return v;
-    case TargetTransform::Log:
-      return sem::apply<Op::Exp, T>(v, v, v, v);
-    case TargetTransform::Sqrt:
-      return v > T(0) ? v * v : T(0);
-    case TargetTransform::Rcp:
-      return sem::apply<Op::Rcp, T>(v, v, v, v);
-  }
-  return v;
-}
 }  // namespace
 
 std::string_view toString(ErrorMetric m) {
@@ -70,7 +56,7 @@ double applyTransform(TargetTransform t, double y) {
   return y;
 }
 double invertTransform(TargetTransform t, double v) {
-  return invert<double>(t, v);
+  return detail::invertValue<double>(t, v);
 }
 
 Status checkErrorNumerics(const Table& t, const ErrorConfig& cfg) {
@@ -210,8 +196,11 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
     targets_[o].y = ds.target(o);
     fillRelWeights(targets_[o], ds.weight(), n, cfg_.rel_floor);
   }
+  genes_ = cfg_.linear_scaling ? std::max(1, cfg_.genes) : 1;
   if (buffered()) {
-    raw_.assign(ds.numOutputs(), std::vector<float>(n));
+    raw_.assign(static_cast<size_t>(ds.numOutputs()) * genes_, std::vector<float>(n));
+    model_.assign(ds.numOutputs(), nullptr);
+    if (genes_ > 1) layer_.assign(ds.numOutputs(), std::vector<float>(n));
     chan_pred_.resize(block_size);
     if (cfg_.linear_scaling) {
       // T(y) is fixed: its weighted mean and centred values are computed once, not per fit.
@@ -245,7 +234,7 @@ Scorer::Scorer(const Dataset& ds, ErrorConfig cfg, int block_size)
       fillRelWeights(chan_targets_[c], ds.weight(), n, cfg_.rel_floor);
     }
   }
-  scales_.assign(ds.numOutputs(), LinearScale{});
+  scales_.assign(static_cast<size_t>(ds.numOutputs()) * genes_, LinearScale{});
 }
 
 namespace {
@@ -445,7 +434,7 @@ void applyScale(const LinearScale& ls, float* v, size_t n) {
 void invertInPlace(TargetTransform t, float* v, size_t n) {
   if (t == TargetTransform::None) return;
 #pragma omp simd
-  for (size_t r = 0; r < n; ++r) v[r] = invert<float>(t, v[r]);
+  for (size_t r = 0; r < n; ++r) v[r] = detail::invertValue<float>(t, v[r]);
 }
 
 // a and b from the centred weighted sums; a = 0 (offset only) for a flat or degenerate f.
@@ -473,7 +462,7 @@ void Scorer::run(const BoundProgram& bp, std::vector<detail::ErrorAcc>& accs) {
       if (t != TargetTransform::None) {
         float* buf = pred_.data();
 #pragma omp simd
-        for (int i = 0; i < bs; ++i) buf[i] = invert<float>(t, pred[i]);
+        for (int i = 0; i < bs; ++i) buf[i] = detail::invertValue<float>(t, pred[i]);
         pred = buf;
       }
       accumulateBlock<M>(accs[o], pred, targets_[o], ds_, b, cfg_.rel_floor);
@@ -512,36 +501,147 @@ LinearScale Scorer::fitScale(const float* v, int o) const {
   return scaleFromSums(sw, mf, fit_mean_[o], tff, tfy);
 }
 
+namespace {
+// sum_r w_r (f_r - mf) (g_r - mg) over n rows (a multiple of 8), in fixed lanes (vectorised,
+// deterministic).
+template <class G>
+double centredDot(const double* w, const float* f, double mf, const G* g, double mg, size_t n) {
+  constexpr int L = 8;
+  double acc[L] = {};
+  for (size_t r = 0; r < n; r += L)
+#pragma omp simd
+    for (int j = 0; j < L; ++j)
+      acc[j] += w[r + j] * (f[r + j] - mf) * (static_cast<double>(g[r + j]) - mg);
+  double t = 0;
+  for (int j = 0; j < L; ++j) t += acc[j];
+  return t;
+}
+// A gene is dropped when what it adds beyond the genes before it has less than this share of
+// its own variance: its coefficient would be large and cancel against theirs, which float32
+// cannot carry (fidelity.hpp).
+constexpr double kCollinear = 1e-8;
+}  // namespace
+
+void Scorer::fitLayer(int o) {
+  const int G = genes_;
+  const size_t n = ds_.paddedRows();
+  const double* w = ds_.weight();
+  const double sw = ds_.weightSum();
+  const double my = fit_mean_[o];
+  // Weighted means, then the centred normal equations C a = c.
+  std::vector<double>& gm = gram_;
+  gm.assign(static_cast<size_t>(G) * (G + 3), 0.0);
+  double* mean = gm.data();
+  double* c = mean + G;
+  double* C = c + G;  // G x G, lower triangle used; becomes the Cholesky factor
+  for (int g = 0; g < G; ++g) {
+    const float* f = raw_[o * G + g].data();
+    double acc[8] = {};
+    for (size_t r = 0; r < n; r += 8)
+#pragma omp simd
+      for (int j = 0; j < 8; ++j) acc[j] += w[r + j] * f[r + j];
+    double t = 0;
+    for (double v : acc) t += v;
+    mean[g] = t / sw;
+  }
+  for (int g = 0; g < G; ++g) {
+    const float* fg = raw_[o * G + g].data();
+    c[g] = centredDot(w, fg, mean[g], fit_centred_[o].data(), 0.0, n);
+    for (int h = 0; h <= g; ++h)
+      C[g * G + h] = centredDot(w, fg, mean[g], raw_[o * G + h].data(), mean[h], n);
+  }
+  // Cholesky in gene order, keeping only genes that are neither flat (scaleFromSums's guard)
+  // nor collinear with the kept ones; dropped genes get a = 0.
+  std::vector<int> kept;
+  kept.reserve(G);
+  for (int g = 0; g < G; ++g) {
+    const double var = C[g * G + g];
+    if (!(var > 1e-12 * sw * (1.0 + mean[g] * mean[g]))) continue;
+    double d = var;
+    for (size_t i = 0; i < kept.size(); ++i) {
+      const int j = kept[i];
+      double v = C[g * G + j];
+      for (size_t q = 0; q < i; ++q) v -= C[g * G + kept[q]] * C[j * G + kept[q]];
+      v /= C[j * G + j];
+      C[g * G + j] = v;
+      d -= v * v;
+    }
+    if (!(d > kCollinear * var)) continue;
+    C[g * G + g] = std::sqrt(d);
+    kept.push_back(g);
+  }
+  // L L' a = c on the kept genes.
+  const size_t m = kept.size();
+  std::vector<double> a(G, 0.0), z(m);
+  for (size_t i = 0; i < m; ++i) {
+    const int g = kept[i];
+    double v = c[g];
+    for (size_t q = 0; q < i; ++q) v -= C[g * G + kept[q]] * z[q];
+    z[i] = v / C[g * G + g];
+  }
+  for (size_t i = m; i-- > 0;) {
+    const int g = kept[i];
+    double v = z[i];
+    for (size_t q = i + 1; q < m; ++q) v -= C[kept[q] * G + g] * a[kept[q]];
+    a[g] = v / C[g * G + g];
+  }
+  // The offset with the coefficients as float32 carries them; the guards of scaleFromSums.
+  bool ok = true;
+  double b = my;
+  for (int g = 0; g < G; ++g) {
+    const float af = static_cast<float>(a[g]);
+    ok = ok && std::isfinite(a[g]) && std::fabs(a[g]) <= 1e30 && std::isfinite(af);
+    b -= static_cast<double>(af) * mean[g];
+  }
+  ok = ok && std::isfinite(b) && std::fabs(b) <= 1e30;
+  LinearScale* s = &scales_[static_cast<size_t>(o) * G];
+  for (int g = 0; g < G; ++g) s[g] = LinearScale{ok ? static_cast<float>(a[g]) : 0.0f, 0.0f};
+  if (!ok) b = std::isfinite(my) ? my : 0.0;
+  s[detail::leadGene(s, G)].b = static_cast<float>(b);
+}
+
 template <int M>
 bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail::ErrorAcc>& accs) {
   const int bs = interp_.blockSize();
   const size_t nb = ds_.numBlocks();
   const size_t n = ds_.paddedRows();
-  const int k = static_cast<int>(bp.output_slots.size());
+  const int raw = static_cast<int>(bp.output_slots.size());
+  const int G = scale ? genes_ : 1;  // metrics of a final program: its outputs as they are
+  const int k = raw / G;
   for (size_t b = 0; b < nb; ++b) {
     const auto& outs = interp_.evalBlock(bp, ds_, b);
-    for (int o = 0; o < k; ++o) std::memcpy(raw_[o].data() + b * bs, outs[o], bs * sizeof(float));
+    for (int o = 0; o < raw; ++o) std::memcpy(raw_[o].data() + b * bs, outs[o], bs * sizeof(float));
   }
   // Reset first: a program that fails below must not leave the scales (and so the cost) of
   // whatever this Scorer measured before.
   std::fill(scales_.begin(), scales_.end(), LinearScale{});
-  for (int o = 0; o < k; ++o) {
-    float* v = raw_[o].data();
+  for (int o = 0; o < raw; ++o) {
+    const float* v = raw_[o].data();
     float chk = 0;
 #pragma omp simd reduction(+ : chk)
     for (size_t r = 0; r < n; ++r) chk += v[r] * 0.0f;
     if (!(chk == 0.0f)) return false;
-    if (scale) {
+  }
+  for (int o = 0; o < k; ++o) {
+    float* v = raw_[o].data();
+    if (scale && G > 1) {
+      fitLayer(o);
+      const float* genes[kMaxGenes];
+      for (int g = 0; g < G; ++g) genes[g] = raw_[o * G + g].data();
+      v = layer_[o].data();
+      detail::applyLayer<float>(&scales_[static_cast<size_t>(o) * G], G, genes, v, n);
+    } else if (scale) {
       scales_[o] = fitScale(v, o);
       applyScale(scales_[o], v, n);
     }
     invertInPlace(cfg_.transforms[o], v, n);
+    model_[o] = v;
   }
   if (cfg_.channels.empty()) {
     accs.assign(k, Acc{});
     for (int o = 0; o < k; ++o)
       for (size_t b = 0; b < nb; ++b)
-        accumulateBlock<M>(accs[o], raw_[o].data() + b * bs, targets_[o], ds_, b, cfg_.rel_floor);
+        accumulateBlock<M>(accs[o], model_[o] + b * bs, targets_[o], ds_, b, cfg_.rel_floor);
     return true;
   }
   accs.assign(cfg_.channels.size(), Acc{});
@@ -554,7 +654,7 @@ bool Scorer::runBuffered(const BoundProgram& bp, bool scale, std::vector<detail:
       for (int o = 0; o < k; ++o) {
         if (wt[o] == 0) continue;
         const float wo = static_cast<float>(wt[o]);
-        const float* v = raw_[o].data() + off;
+        const float* v = model_[o] + off;
 #pragma omp simd
         for (int i = 0; i < bs; ++i) cp[i] += wo * v[i];
       }
@@ -570,19 +670,22 @@ bool Scorer::runConstant(const BoundProgram& bp, bool buffered, bool scale,
   // Every row computes the same value (the kernels are bit-identical row by row), so one
   // 16-row slice gives it; the steps below repeat the full path's on that one value.
   const auto& outs = interp_.evalBlock(bp, ds_, 0, 16);
-  const int k = static_cast<int>(outs.size());
+  const int G = scale ? genes_ : 1;
+  const int k = static_cast<int>(outs.size()) / G;
   const_vals_.resize(k);
   if (buffered) std::fill(scales_.begin(), scales_.end(), LinearScale{});
+  if (buffered)
+    for (const float* v : outs)
+      if (!(v[0] * 0.0f == 0.0f)) return false;
   for (int o = 0; o < k; ++o) {
-    float v = outs[o][0];
-    if (buffered) {
-      if (!(v * 0.0f == 0.0f)) return false;
-      // The fit of a constant f: sff = 0, so a = 0 and b = the weighted mean of T(y), exactly
-      // what fitScale computes for a flat column.
-      if (scale) {
-        scales_[o] = scaleFromSums(ds_.weightSum(), v, fit_mean_[o], 0.0, 0.0);
-        applyScale(scales_[o], &v, 1);
-      }
+    float v = outs[o * G][0];
+    if (buffered && scale) {
+      // The fit of constant genes: sff = 0, so a = 0 and b = the weighted mean of T(y), exactly
+      // what fitScale and fitLayer compute for flat columns; later genes weigh nothing.
+      LinearScale* sc = &scales_[static_cast<size_t>(o) * G];
+      sc[0] = scaleFromSums(ds_.weightSum(), v, fit_mean_[o], 0.0, 0.0);
+      for (int g = 1; g < G; ++g) sc[g] = LinearScale{0.0f, 0.0f};
+      applyScale(sc[0], &v, 1);
     }
     invertInPlace(cfg_.transforms[o], &v, 1);
     const_vals_[o] = v;
@@ -655,7 +758,13 @@ double Scorer::error(const BoundProgram& bp) {
     if (!(a.chk == 0.0f)) return std::numeric_limits<double>::infinity();
     errors_.push_back(pickMetric(metricsFromAcc(a, ds_.weightSum()), cfg_.metric));
   }
-  return combineValues(errors_, cfg_.combine);
+  const double e = combineValues(errors_, cfg_.combine);
+  if (fidelity_ && e < std::numeric_limits<double>::infinity() &&
+      !fidelity_->passes(bp, cfg_.linear_scaling ? scales_ : std::vector<LinearScale>{})) {
+    ++fidelity_rejects_;
+    return std::numeric_limits<double>::infinity();
+  }
+  return e;
 }
 
 std::vector<OutputMetrics> Scorer::metrics(const Program& p) {
@@ -692,25 +801,45 @@ std::vector<OutputMetrics> Scorer::channelMetrics(const Program& p) {
   return out;
 }
 
-Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales) {
+Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales, int genes) {
   Program q = p;
-  for (size_t o = 0; o < q.outputs.size() && o < scales.size(); ++o) {
-    const LinearScale s = scales[o];
-    if (s.identity()) continue;
+  const int G = std::max(1, genes);
+  const size_t k = p.outputs.size() / G;
+  auto append = [&](Op op, Operand x, std::initializer_list<float> ks, Operand tail) {
     Instr in;
-    in.op = s.op();
-    in.args[0] = regOperand(q.outputs[o]);
-    // mul(f, a), add(f, b) or mad(f, a, b): the constants in operand order.
-    const std::vector<float> ks = in.op == Op::Mul   ? std::vector<float>{s.a}
-                                  : in.op == Op::Add ? std::vector<float>{s.b}
-                                                     : std::vector<float>{s.a, s.b};
-    for (size_t k = 0; k < ks.size(); ++k) {
-      in.args[1 + k] = constOperand(static_cast<int>(q.constants.size()));
-      q.constants.push_back(ks[k]);
+    in.op = op;
+    in.args[0] = x;
+    int a = 1;
+    for (float v : ks) {
+      in.args[a++] = constOperand(static_cast<int>(q.constants.size()));
+      q.constants.push_back(v);
     }
+    if (tail.kind == OperandKind::Reg) in.args[a] = tail;
     q.code.push_back(in);
-    q.outputs[o] = static_cast<uint8_t>(q.code.size() - 1);
+    return regOperand(static_cast<int>(q.code.size() - 1));
+  };
+  std::vector<uint8_t> outs(k);
+  for (size_t o = 0; o < k; ++o) {
+    const size_t first = o * G;
+    if (first + G > scales.size()) {
+      outs[o] = p.outputs[first];
+      continue;
+    }
+    const LinearScale* s = &scales[first];
+    const int lead = detail::leadGene(s, G);
+    Operand cur = regOperand(p.outputs[first + lead]);
+    const Operand none{OperandKind::Var, 0};
+    // mul(f, a), add(f, b) or mad(f, a, b): the constants in operand order.
+    const LinearScale ls = s[lead];
+    if (!ls.identity())
+      cur = ls.op() == Op::Mul   ? append(Op::Mul, cur, {ls.a}, none)
+            : ls.op() == Op::Add ? append(Op::Add, cur, {ls.b}, none)
+                                 : append(Op::Mad, cur, {ls.a, ls.b}, none);
+    for (int g = lead + 1; g < G; ++g)
+      if (s[g].a != 0.0f) cur = append(Op::Mad, regOperand(p.outputs[first + g]), {s[g].a}, cur);
+    outs[o] = cur.index;
   }
+  q.outputs = std::move(outs);
   return q;
 }
 
@@ -754,7 +883,7 @@ std::vector<std::vector<double>> referencePredictions(const Program& p, const Ta
   for (size_t o = 0; o < pred.size(); ++o) {
     const TargetTransform tr =
         o < cfg.transforms.size() ? cfg.transforms[o] : TargetTransform::None;
-    for (double& v : pred[o]) v = invert<double>(tr, v);
+    for (double& v : pred[o]) v = detail::invertValue<double>(tr, v);
   }
   return pred;
 }

@@ -7,6 +7,7 @@
 #include "lgp/core/cancellation.hpp"
 #include "lgp/core/formula.hpp"
 #include "lgp/core/snap.hpp"
+#include "lgp/eval/fidelity.hpp"
 #include "lgp/search/search.hpp"
 
 namespace lgp {
@@ -68,9 +69,16 @@ std::vector<FrontEntry> Search::front() const {
     std::vector<Objectives> objs(n);
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
     for (int i = 0; i < n; ++i) {
-      Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
-      twins[i] = snappedTwin(s, members[i].program);
-      if (twins[i]) objs[i] = score(s, *twins[i]);
+      CheckedScorer cs(*this);
+      twins[i] = snappedTwin(cs.scorer, members[i].program);
+      if (!twins[i]) continue;
+      objs[i] = score(cs.scorer, *twins[i]);
+      // A twin joins only as an archive candidate would: checked on every row.
+      FidelityCheck full(table_, err_cfg_, 0);
+      if (objs[i].finite() &&
+          !full.passes(cs.scorer.bound(),
+                       err_cfg_.linear_scaling ? cs.scorer.scales() : std::vector<LinearScale>{}))
+        twins[i].reset();
     }
     if (measure_) {  // twins compete in measured cost, as the members do
       Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
@@ -99,11 +107,26 @@ std::vector<FrontEntry> Search::front() const {
   }
   std::vector<FrontEntry> out(members.size());
   const int n = static_cast<int>(members.size());
+  // What is exported is what was scored (eval/fidelity.hpp): a member whose program or emitted
+  // formula does not reproduce its float32 values leaves the front (restored checkpoints may
+  // hold members the archive never checked).
+  std::vector<uint8_t> faithful(n, 1);
+  const std::vector<double> tol = fidelityTolerances(table_);
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
   for (int i = 0; i < n; ++i) {
     FrontEntry& e = out[i];
     Scorer s(ds_, err_cfg_, cfg_.eval.block_size);
     e.program = finalProgram(s, members[i].program);
+    {
+      FidelityCheck full(table_, err_cfg_, 0);
+      BoundProgram bp;
+      bp.bind(e.program, shape_.num_inputs);
+      const auto formula = toProgram(formulaDag(e.program, shape_.num_inputs, domain_));
+      faithful[i] =
+          full.passes(bp, {}) && formula &&
+          valueDeviation(e.program, formula->program, ds_, err_cfg_.transforms, tol) <= 1.0;
+      if (!faithful[i]) continue;
+    }
     e.obj = members[i].obj;
     e.metrics = s.metrics(e.program);
     e.metrics_ref = referenceMetrics(e.program, table_, err_cfg_);
@@ -115,16 +138,25 @@ std::vector<FrontEntry> Search::front() const {
     const Dag d = formulaDag(e.program, shape_.num_inputs, domain_);
     e.infix = printOutputs(d, table_.input_names);
     e.formula = printFormula(d, table_.input_names, table_.output_names).text();
+    // Cancellation in the program as scored and in the formula as emitted, the worse of the
+    // two: simplification may fold constants that cancel, which the scored program still has.
     e.cancellation = cancellation(d, table_, err_cfg_.transforms);
+    const Cancellation raw =
+        cancellation(buildDag(e.program, shape_.num_inputs), table_, err_cfg_.transforms);
+    if (raw.bits_lost > e.cancellation.bits_lost) e.cancellation = raw;
   }
-  return out;
+  std::vector<FrontEntry> kept;
+  kept.reserve(out.size());
+  for (int i = 0; i < n; ++i)
+    if (faithful[i]) kept.push_back(std::move(out[i]));
+  return kept;
 }
 
 Program Search::finalProgram(Scorer& s, const Program& p) const {
   Program body = pruneIntrons(p);
   if (!err_cfg_.linear_scaling) return body;
   s.error(body);  // fits the scales, exactly as when the member was scored
-  return applyLinearScaling(body, s.scales());
+  return applyLinearScaling(body, s.scales(), genes());
 }
 
 }  // namespace lgp

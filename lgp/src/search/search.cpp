@@ -42,6 +42,7 @@ Search::Search(RunConfig cfg, Table table)
       archive_(cfg_.search.archive) {
   transform_cost_ = cost_.transformCost(err_cfg_.transforms);
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
+  err_cfg_.genes = cfg_.search.linear_scaling ? cfg_.program.genes : 1;
   {
     const size_t channels =
         err_cfg_.channels.empty() ? table_.numOutputs() : err_cfg_.channels.size();
@@ -55,6 +56,7 @@ Search::Search(RunConfig cfg, Table table)
   threads_ =
       std::min(cfg_.search.threads > 0 ? cfg_.search.threads : omp_get_max_threads(), maxThreads());
   scorers_.resize(threads_);
+  checks_.resize(threads_);
   fitters_.resize(threads_);
   cache_ = std::make_unique<SemanticCache>(static_cast<size_t>(cfg_.search.semantic_cache));
   start_ = std::chrono::steady_clock::now();
@@ -68,14 +70,57 @@ int Search::maxThreads() {
 
 ConstantFitter& Search::fitter(int thread) {
   auto& f = fitters_[thread];
-  if (!f) f = std::make_unique<ConstantFitter>(ds_, err_cfg_);
+  if (!f) {
+    // With an output layer of several genes LM fits the exported program, whose layer is
+    // opcodes and constants (see fitConstants): its outputs are the model's, unscaled.
+    ErrorConfig cfg = err_cfg_;
+    if (genes() > 1) {
+      cfg.linear_scaling = false;
+      cfg.genes = 1;
+    }
+    f = std::make_unique<ConstantFitter>(ds_, cfg);
+  }
   return *f;
+}
+
+ConstantFitResult Search::fitConstants(int thread, Program& p, const LevenbergMarquardtConfig& lm) {
+  if (genes() == 1) return fitter(thread).fit(p, lm);
+  // The layer's coefficients are LM parameters like the program's constants, started at the
+  // Scorer's closed-form fit and dropped afterwards (the Scorer fits them again): the
+  // several-gene form of what LM does with a*f + b.
+  Scorer& s = scorer(thread);
+  if (!std::isfinite(s.error(p))) return {};
+  Program full = applyLinearScaling(p, s.scales(), genes());
+  ConstantFitResult r = fitter(thread).fit(full, lm);
+  if (r.improved) std::copy_n(full.constants.begin(), p.constants.size(), p.constants.begin());
+  return r;
 }
 
 Scorer& Search::scorer(int thread) {
   auto& s = scorers_[thread];
-  if (!s) s = std::make_unique<Scorer>(ds_, err_cfg_, cfg_.eval.block_size);
+  if (!s) {
+    checks_[thread] = std::make_unique<FidelityCheck>(table_, err_cfg_, kFidelitySampleRows);
+    s = std::make_unique<Scorer>(ds_, err_cfg_, cfg_.eval.block_size);
+    s->setFidelity(checks_[thread].get());
+  }
   return *s;
+}
+
+Search::CheckedScorer::CheckedScorer(const Search& s)
+    : check(s.table_, s.err_cfg_, kFidelitySampleRows),
+      scorer(s.ds_, s.err_cfg_, s.cfg_.eval.block_size) {
+  scorer.setFidelity(&check);
+}
+
+bool Search::fidelityOnEveryRow(const Program& p) {
+  if (!full_check_) full_check_ = std::make_unique<FidelityCheck>(table_, err_cfg_, 0);
+  Scorer& s = scorer(0);
+  if (!std::isfinite(s.error(p))) return false;
+  if (full_check_->passes(s.bound(),
+                          err_cfg_.linear_scaling ? s.scales() : std::vector<LinearScale>{}))
+    return true;
+  ++fidelity_archive_rejects_;
+  return false;
 }
 
 double Search::elapsed() const {
@@ -89,7 +134,7 @@ Objectives Search::score(Scorer& s, const Program& p) const {
   if (!std::isfinite(o.error)) o.error = kInf;
   const auto& effective = s.bound().effective;  // bound by error(p): computed once
   // The program as exported: with linear scaling, its mad and constants are costed too.
-  o.cost = (err_cfg_.linear_scaling ? cost_.programCost(applyLinearScaling(p, s.scales()))
+  o.cost = (err_cfg_.linear_scaling ? cost_.programCost(applyLinearScaling(p, s.scales(), genes()))
                                     : cost_.programCost(p)) +
            transform_cost_;
   o.discontinuity = disc_.programDiscontinuity(p, effective);
@@ -122,7 +167,7 @@ void Search::refineOne(int thread, Individual& ind, uint64_t seed, uint64_t& eva
       LevenbergMarquardtConfig lm;
       lm.max_iterations = lm_iterations;
       lm.objective = sched.lm_metric;
-      const auto fit = fitter(thread).fit(work, lm);
+      const auto fit = fitConstants(thread, work, lm);
       out.improved = fit.improved;
       out.converged = fit.converged;
       out.evaluations = static_cast<uint32_t>(fit.evaluations);
@@ -671,8 +716,10 @@ void Search::setCostMeasure(CostMeasure measure, CostModel predictor, double sla
 }
 
 void Search::archiveInsert(const Program& p, const Objectives& o, bool refined) {
-  if (!measure_ || !o.finite()) {
-    archive_.insert(p, o, refined);
+  // Only what the archive would take is checked on every row (the sampled rows already passed).
+  if (!o.finite()) return;
+  if (!measure_) {
+    if (!archive_.rejects(o) && fidelityOnEveryRow(p)) archive_.insert(p, o, refined);
     return;
   }
   Scorer& s = scorer(0);
@@ -681,7 +728,7 @@ void Search::archiveInsert(const Program& p, const Objectives& o, bool refined) 
   m.cost =
       std::max(0.0, measure_predictor_.programCost(fp) +
                         measure_predictor_.transformCost(err_cfg_.transforms) - measure_slack_);
-  if (archive_.rejects(m)) return;
+  if (archive_.rejects(m) || !fidelityOnEveryRow(p)) return;
   const auto t0 = std::chrono::steady_clock::now();
   const auto c = measure_(fp);
   measure_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -700,6 +747,9 @@ RefineStats Search::refineStats() const {
   r.nm_evaluations = nm_evaluations_.load();
   r.cache_score_hits = cache_score_hits_;
   r.cache_lm_replays = cache_lm_replays_.load();
+  for (const auto& s : scorers_)
+    if (s) r.fidelity_rejects += s->fidelityRejects();
+  r.fidelity_archive_rejects = fidelity_archive_rejects_;
   return r;
 }
 
@@ -726,6 +776,22 @@ SearchProgress Search::progress() const {
 
 Expected<Program> fitToShape(const Program& p, const ProgramShape& shape) {
   Program q = pruneIntrons(p);
+  const int have = static_cast<int>(q.outputs.size());
+  if (shape.genes > 1 && have * shape.genes == shape.num_outputs) {
+    // An output layer of several genes per output: each output's opcode is repeated as its
+    // other genes (the least-squares fit gives the copies no weight).
+    const int genes = shape.genes;
+    std::vector<uint8_t> outs;
+    for (int o = 0; o < have; ++o) {
+      outs.push_back(q.outputs[o]);
+      for (int g = 1; g < genes; ++g) {
+        if (q.code.size() >= 255) return Status::error("too long for the output layer's genes");
+        q.code.push_back(q.code[q.outputs[o]]);
+        outs.push_back(static_cast<uint8_t>(q.code.size() - 1));
+      }
+    }
+    q.outputs = std::move(outs);
+  }
   if (static_cast<int>(q.outputs.size()) != shape.num_outputs)
     return Status::error("has " + std::to_string(q.outputs.size()) + " outputs, the run has " +
                          std::to_string(shape.num_outputs));

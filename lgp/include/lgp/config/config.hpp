@@ -55,6 +55,10 @@ struct ProgramConfig {
   int init_max_length = 12;
   double const_min = -2.0;  // initial constants and mutation resets: uniform in [min, max]
   double const_max = 2.0;
+  // Genes per output of the output layer (needs search.linear_scaling): each output is the
+  // least-squares combination b + sum_g a_g f_g of `genes` program results, fitted in closed
+  // form at every evaluation (eval/objectives.hpp). 1 = the plain a*f + b.
+  int genes = 1;
 };
 
 // A derived signal the error is measured on: sum over outputs of weight * output, against the

@@ -58,6 +58,7 @@ struct ProgramShape {
   int num_constants = 8;  // constant slots per program, 0..255
   OutputMode output_mode = OutputMode::Last;
   OpSet ops = OpSet::all();  // operators that variation may use
+  int genes = 1;  // program results per model output (the output layer; num_outputs counts all)
 };
 
 struct Program {

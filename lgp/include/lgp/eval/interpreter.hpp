@@ -115,6 +115,10 @@ struct BoundProgram {
     std::array<int32_t, kMaxArity> src;  // slot per operand (unused ones point at slot 0)
     std::array<int32_t, 3> src2{};       // fused pair: the second opcode's other operands
     int32_t dst;                         // register slot
+    // The operators, for evaluators in another precision (eval/fidelity.hpp): op, and for a
+    // fused pair op2 over (src2 with op's result at the operands in mask's bits).
+    Op op = Op::Add, op2 = Op::Add;
+    uint8_t mask = 0;
   };
   std::vector<Step> steps;
   std::vector<float> const_values;  // one per bound constant slot

@@ -25,6 +25,7 @@
 #include "lgp/core/ops.hpp"
 #include "lgp/core/program.hpp"
 #include "lgp/eval/cost_model.hpp"
+#include "lgp/eval/fidelity.hpp"
 #include "lgp/eval/interpreter.hpp"
 
 namespace lgp {
@@ -62,9 +63,17 @@ struct ErrorConfig {
   // error() fits each raw program output as a*f + b (weighted least squares against the
   // transformed target) before measuring; metrics() never scales.
   bool linear_scaling = false;
+  // The output layer under linear scaling (program.genes): output o is b_o + sum over g <
+  // genes of a_g f_(o*genes+g), a weighted least-squares fit over `genes` raw program outputs
+  // (multi-gene regression, Searson et al. 2010). 1 is a*f + b.
+  int genes = 1;
 };
 
-// Scale and offset of one output under linear scaling.
+// Genes per output of the output layer, at most.
+inline constexpr int kMaxGenes = 16;
+
+// Scale and offset of one raw output under linear scaling (one gene of the output layer; the
+// offset sits on the output's lead gene, see Scorer::scales()).
 struct LinearScale {
   float a = 1.0f, b = 0.0f;
   bool identity() const { return a == 1.0f && b == 0.0f; }
@@ -132,8 +141,17 @@ class Scorer {
   std::vector<OutputMetrics> metrics(const Program& p);
   // Every metric per channel (per output when the config has no channels), float32 path.
   std::vector<OutputMetrics> channelMetrics(const Program& p);
-  // The scales fitted by the last error() call under linear scaling (identity otherwise).
+  // The output layer fitted by the last error() call under linear scaling, one scale per raw
+  // program output (o * genes + g), identity otherwise. Output o is its lead gene (the first
+  // with a != 0, or gene 0) scaled, plus a_g f_g of each later gene with a_g != 0; only the
+  // lead carries an offset (applyLinearScaling materialises exactly this).
   const std::vector<LinearScale>& scales() const { return scales_; }
+  // From now on error() checks every finite result with `check` (fidelity.hpp) and returns
+  // +inf for a program that fails it (the worst error, like a NaN output); nullptr = off. The
+  // check must outlive the Scorer's use of it.
+  void setFidelity(FidelityCheck* check) { fidelity_ = check; }
+  // Programs error() refused for fidelity since construction.
+  uint64_t fidelityRejects() const { return fidelity_rejects_; }
   // The program bound by the last error(Program), metrics() or channelMetrics() call; its
   // `effective` opcodes spare callers a second effectiveIndices().
   const BoundProgram& bound() const { return bound_; }
@@ -157,6 +175,8 @@ class Scorer {
   bool measure(const BoundProgram& bp);
   // Weighted least squares of T(y_o) on the raw output v (every padded row).
   LinearScale fitScale(const float* v, int o) const;
+  // The output layer of output o over raw_[o * genes + g] (genes > 1) into scales_.
+  void fitLayer(int o);
 
   const Dataset& ds_;
   ErrorConfig cfg_;
@@ -176,12 +196,19 @@ class Scorer {
   std::vector<float> const_pred_;  // a constant program's prediction broadcast over a block
   std::vector<float> const_vals_;  // a constant program's final value per output
   std::vector<LinearScale> scales_;
+  std::vector<std::vector<float>> layer_;  // genes > 1: per output, the layer's values
+  std::vector<float*> model_;              // buffered path: per output, its values
+  std::vector<double> gram_;               // fitLayer's normal equations
+  int genes_ = 1;                          // cfg_.genes under linear scaling, else 1
+  FidelityCheck* fidelity_ = nullptr;
+  uint64_t fidelity_rejects_ = 0;
 };
 
-// Appends the scaling opcodes (mad, or mul/add where a = 1 or b = 0) to a copy of `p`, with
-// new constant slots; outputs become designated. The result computes exactly what
-// Scorer::error() measured.
-Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales);
+// Appends the output layer's opcodes to a copy of `p`, with new constant slots: per output,
+// the lead gene's scale (mad, or mul/add where a = 1 or b = 0), then a mad per later gene with
+// a != 0 (Scorer::scales()); the program's outputs become one per model output (designated).
+// The result computes exactly what Scorer::error() measured. `genes` = scales per output.
+Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& scales, int genes = 1);
 
 // The error a float32 evaluation of the exact formula reaches on `t` by rounding alone:
 // 2^-24 times the targets' RMS (rmse), mean |y| (mae) or max |y| (max_abs), or 2^-24

@@ -50,6 +50,7 @@
 #include "lgp/core/snap.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/eval/discontinuity.hpp"
+#include "lgp/eval/fidelity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
@@ -69,6 +70,9 @@ struct RefineStats {
   // offspring LM fits replayed from it (not counted in lm_fits and the other LM counters,
   // which count fits run).
   uint64_t cache_score_hits = 0, cache_lm_replays = 0;
+  // Programs found to fit through float32 rounding (eval/fidelity.hpp): scores refused on the
+  // sampled rows, and archive candidates refused on every row.
+  uint64_t fidelity_rejects = 0, fidelity_archive_rejects = 0;
 };
 
 struct SearchProgress {
@@ -248,6 +252,19 @@ class Search {
   std::string stopReason() const;
   Scorer& scorer(int thread);
   ConstantFitter& fitter(int thread);
+  // LM on p's constants with thread `thread`'s fitter (through the exported program where the
+  // output layer has several genes).
+  ConstantFitResult fitConstants(int thread, Program& p, const LevenbergMarquardtConfig& lm);
+  int genes() const { return err_cfg_.genes; }
+  // A Scorer for work outside the per-thread ones (front assembly), with its own fidelity
+  // check on the sampled rows.
+  struct CheckedScorer {
+    FidelityCheck check;
+    Scorer scorer;
+    CheckedScorer(const Search& s);
+  };
+  // Whether the archive candidate `p` passes the fidelity rule on every row.
+  bool fidelityOnEveryRow(const Program& p);
   // The program a member stands for: introns pruned, linear scaling materialised.
   Program finalProgram(Scorer& s, const Program& p) const;
 
@@ -261,7 +278,10 @@ class Search {
   Dataset ds_;
   int threads_ = 1;
 
-  std::vector<std::unique_ptr<Scorer>> scorers_;  // one per OpenMP thread
+  std::vector<std::unique_ptr<Scorer>> scorers_;        // one per OpenMP thread
+  std::vector<std::unique_ptr<FidelityCheck>> checks_;  // theirs, on the sampled rows
+  std::unique_ptr<FidelityCheck> full_check_;           // every row (archive candidates)
+  uint64_t fidelity_archive_rejects_ = 0;
   std::vector<std::unique_ptr<ConstantFitter>> fitters_;
   std::vector<Island> islands_;
   std::unique_ptr<MigrationTransport> transport_;
