@@ -470,12 +470,17 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
       }
       os << "\n";
     }
-    // Why larger sizes were not done (the two reasons the enumerator writes; anything else in
-    // a hand-edited front is not printed).
+    // Why larger sizes were not done (the reasons the enumerator writes; anything else in a
+    // hand-edited front is not printed).
     const auto stopped = it->value("stopped", nlohmann::json());
-    if (stopped == "seconds" || stopped == "expression cap")
-      os << "  stopped by the " << (stopped == "seconds" ? "time budget" : "expression cap")
-         << " after " << it->value("complete_ops", nlohmann::json(-1)).dump() << " ops\n";
+    const auto complete = it->value("complete_ops", nlohmann::json(-1));
+    if ((stopped == "seconds" || stopped == "expression cap" || stopped == "memory") &&
+        complete.is_number_integer())
+      os << "  stopped by the "
+         << (stopped == "seconds"          ? "time budget"
+             : stopped == "expression cap" ? "expression cap"
+                                           : "memory bound")
+         << " after " << complete.dump() << " ops\n";
   }
   return os.str();
 }
