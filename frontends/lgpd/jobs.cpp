@@ -76,13 +76,6 @@ std::string newRunId() {
   return buf;
 }
 
-bool isValidRunId(const std::string& id) {
-  if (id.size() != 16) return false;
-  for (char c : id)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
-}
-
 json bestPerObjective(const json& front) {
   json best = json::object();
   if (!front.is_object() || !front.contains("members") || !front["members"].is_array()) return best;
