@@ -238,6 +238,21 @@ TEST_F(ApiTest, BadInputGets4xxAndNeverACrash) {
   EXPECT_EQ(d.get("/api/v1/runs").j()["runs"].size(), 0u);
 }
 
+// lgpd took search.exhaustive, never ran it, and the front had no certificate (hardening round
+// 3, F12): it is refused, naming the field and where to run it.
+TEST_F(ApiTest, ExhaustiveEnumerationIsRefusedNotIgnored) {
+  Daemon& d = *daemon_;
+  json cfg = runConfig(table_, 3);
+  cfg["search"]["exhaustive"] = {{"max_ops", 2}};
+  Reply r;
+  EXPECT_TRUE(d.submit(cfg, &r).empty());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/exhaustive") << r.body;
+  EXPECT_NE(r.body.find("lgp run"), std::string::npos) << r.body;
+  cfg["search"]["exhaustive"]["max_ops"] = 0;  // off: an ordinary run
+  EXPECT_FALSE(d.submit(cfg, &r).empty()) << r.body;
+}
+
 TEST_F(ApiTest, InlineTableAndPage) {
   Daemon& d = *daemon_;
   json table = {{"format", "lgp-table/1"},
