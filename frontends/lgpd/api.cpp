@@ -247,11 +247,19 @@ class Api {
   void dispatch(const HttpRequest& req, HttpResponse& res) {
     const bool get = req.method == "GET" || req.method == "HEAD";
     if (get && (req.path == "/" || req.path == "/index.html")) {
+      // The script comes from /app.js only: an injected inline script would not run. No site
+      // may frame the page (a framing page could lure clicks onto its buttons).
       res.setHeader("Content-Security-Policy",
-                    "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
-                    "img-src 'self' data:; connect-src 'self'");
+                    "default-src 'self'; script-src 'self'; style-src 'unsafe-inline'; "
+                    "img-src 'self' data:; connect-src 'self'; frame-ancestors 'none'; "
+                    "base-uri 'none'; form-action 'none'");
       res.status = 200;
       res.setContent(web::kIndexHtml, "text/html; charset=utf-8");
+      return;
+    }
+    if (get && req.path == "/app.js") {
+      res.status = 200;
+      res.setContent(web::kAppJs, "text/javascript; charset=utf-8");
       return;
     }
     if (!isApi(req.path)) return sendError(res, 404, "no such route");
@@ -711,6 +719,7 @@ HttpHandlers makeApi(Store& store, JobManager& jobs) {
   h.head = [api](const HttpRequest& req, HttpResponse& res) { api->head(req, res); };
   h.route = [api](const HttpRequest& req, HttpResponse& res) { api->dispatch(req, res); };
   h.default_headers = {{"X-Content-Type-Options", "nosniff"},
+                       {"X-Frame-Options", "DENY"},
                        {"Cache-Control", "no-store"},
                        {"Referrer-Policy", "no-referrer"}};
   return h;

@@ -274,18 +274,25 @@ TEST_F(ApiTest, InlineTableAndPage) {
   Reply page = d.get("/");
   EXPECT_EQ(page.status, 200);
   EXPECT_NE(page.body.find("id=\"pareto\""), std::string::npos);
-  // Self-contained: no external script, stylesheet, font, image or fetch. (The only URL
-  // in the page is the SVG namespace, which is an identifier, not a resource.)
-  std::string body = page.body;
-  for (size_t p = 0; (p = body.find("http://www.w3.org/2000/svg", p)) != std::string::npos;)
-    body.erase(p, 26);
-  EXPECT_EQ(body.find("http://"), std::string::npos);
-  EXPECT_EQ(body.find("https://"), std::string::npos);
-  EXPECT_EQ(body.find("//cdn"), std::string::npos);
-  EXPECT_EQ(body.find("<link"), std::string::npos);
-  EXPECT_EQ(body.find("<script src"), std::string::npos);
-  EXPECT_EQ(body.find("@import"), std::string::npos);
-  EXPECT_EQ(body.find("@font-face"), std::string::npos);
+  Reply script = d.get("/app.js");
+  EXPECT_EQ(script.status, 200);
+  // Self-contained: no external script, stylesheet, font, image or fetch; its one script is
+  // lgpd's own /app.js. (The only URL in either is the SVG namespace, which is an
+  // identifier, not a resource.)
+  for (std::string body : {page.body, script.body}) {
+    for (size_t p = 0; (p = body.find("http://www.w3.org/2000/svg", p)) != std::string::npos;)
+      body.erase(p, 26);
+    EXPECT_EQ(body.find("http://"), std::string::npos);
+    EXPECT_EQ(body.find("https://"), std::string::npos);
+    EXPECT_EQ(body.find("//cdn"), std::string::npos);
+    EXPECT_EQ(body.find("<link"), std::string::npos);
+    EXPECT_EQ(body.find("@import"), std::string::npos);
+    EXPECT_EQ(body.find("@font-face"), std::string::npos);
+  }
+  size_t scripts = 0;
+  for (size_t p = 0; (p = page.body.find("<script", p)) != std::string::npos; ++p) ++scripts;
+  EXPECT_EQ(scripts, 1u);
+  EXPECT_NE(page.body.find("<script src=\"/app.js\"></script>"), std::string::npos);
 }
 
 TEST(ApiAuth, NonLoopbackNeedsTokenAndTokenIsEnforced) {
