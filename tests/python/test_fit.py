@@ -125,6 +125,9 @@ def test_multi_output_and_table_object(grid):
     (dict(program=3), "program"),
     (dict(progress="yes"), "progress"),
     (dict(inputs=["a"]), "inputs"),
+    # JSON has no infinity: named here, not "invalid JSON literal" from the engine.
+    (dict(seconds=float("inf")), "seconds: must be a finite number"),
+    (dict(search={"wall_time_s": float("nan")}), "/search/wall_time_s: must be a finite number"),
 ])
 def test_bad_arguments_name_the_field(grid, kwargs, field):
     X, y = grid
