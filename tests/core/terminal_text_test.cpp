@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../shell.hpp"
+#include "../terminal_sequences.hpp"
 #include "lgp/io/terminal_text.hpp"
 
 namespace {
@@ -18,27 +19,12 @@ namespace {
 namespace fs = std::filesystem;
 using lgp_test::sh;
 
-// Title, clear-screen, OSC 52 clipboard write, OSC 8 hyperlink, and a C1 CSI (U+009B).
-const std::string kTitle = "\x1b]0;pwned\x07";
-const std::string kClear = "\x1b[2J";
-const std::string kClipboard = "\x1b]52;c;ZWNobyBwd25lZA==\x07";
-const std::string kLink = "\x1b]8;;http://evil.example\x1b\\click\x1b]8;;\x1b\\";
-const std::string kCsi =
-    "\xc2\x9b"
-    "31m";
-
-// Whether `s` holds anything a terminal acts on: C0 controls other than newline, DEL, or a C1
-// control (U+0080..U+009F as UTF-8).
-bool actsOnTerminal(const std::string& s) {
-  for (size_t i = 0; i < s.size(); ++i) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    if ((c < 0x20 && c != '\n') || c == 0x7f) return true;
-    if (c == 0xc2 && i + 1 < s.size() && static_cast<unsigned char>(s[i + 1]) >= 0x80 &&
-        static_cast<unsigned char>(s[i + 1]) <= 0x9f)
-      return true;
-  }
-  return false;
-}
+using lgp_test::actsOnTerminal;
+using lgp_test::kClear;
+using lgp_test::kClipboard;
+using lgp_test::kCsi;
+using lgp_test::kLink;
+using lgp_test::kTitle;
 
 TEST(TerminalText, ControlsAreEscapedAndLettersKept) {
   EXPECT_EQ(lgp::terminalSafe("mu r_2 \xc2\xb5 \xe2\x88\x9a"), "mu r_2 \xc2\xb5 \xe2\x88\x9a");

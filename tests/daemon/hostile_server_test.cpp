@@ -4,28 +4,16 @@
 // through). Here an in-process HTTP server answers with such text; the CLI prints it escaped.
 #include <thread>
 
+#include "../terminal_sequences.hpp"
 #include "daemon_harness.hpp"
 
 namespace lgpd_test {
 namespace {
 
-const std::string kTitle = "\x1b]0;pwned\x07";
-const std::string kClipboard = "\x1b]52;c;ZWNobyBwd25lZA==\x07";
-const std::string kCsi =
-    "\xc2\x9b"
-    "2J";
-
-// Whether `s` holds anything a terminal acts on (C0 but newline, DEL, UTF-8 C1).
-bool actsOnTerminal(const std::string& s) {
-  for (size_t i = 0; i < s.size(); ++i) {
-    const auto c = static_cast<unsigned char>(s[i]);
-    if ((c < 0x20 && c != '\n') || c == 0x7f) return true;
-    if (c == 0xc2 && i + 1 < s.size() && static_cast<unsigned char>(s[i + 1]) >= 0x80 &&
-        static_cast<unsigned char>(s[i + 1]) <= 0x9f)
-      return true;
-  }
-  return false;
-}
+using lgp_test::actsOnTerminal;
+using lgp_test::kClipboard;
+using lgp_test::kCsi;
+using lgp_test::kTitle;
 
 class HostileServer : public ::testing::Test {
  protected:
@@ -88,7 +76,7 @@ TEST_F(HostileServer, StatusPrintsTheServersTextAsText) {
   EXPECT_NE(out.find("\\x1B]52;c;ZWNobyBwd25lZA==\\x07night run"), std::string::npos) << out;
   EXPECT_EQ(lgp({"status", "0123456789abcdef", "--daemon", url_}, &out), 0) << out;
   EXPECT_FALSE(actsOnTerminal(out)) << out;
-  EXPECT_NE(out.find("failed\\u009B2J"), std::string::npos) << out;
+  EXPECT_NE(out.find("failed\\u009B31m"), std::string::npos) << out;
   EXPECT_NE(out.find("\\x1B]0;pwned\\x07stopped"), std::string::npos) << out;
   EXPECT_EQ(lgp({"status", "--json", "--daemon", url_}, &out), 0) << out;
   EXPECT_FALSE(actsOnTerminal(out)) << out;
@@ -102,7 +90,7 @@ TEST_F(HostileServer, FrontAndSubmitPrintTheServersTextAsText) {
   const fs::path cfg = tmp.path() / "c.json";
   std::ofstream(cfg) << runConfig(writeGridTable(tmp.path()), 3).dump();
   EXPECT_EQ(lgp({"submit", cfg.string(), "--daemon", url_}, &out), 1) << out;
-  EXPECT_NE(out.find("\\x1B]0;pwned\\x07refused\\u009B2J"), std::string::npos) << out;
+  EXPECT_NE(out.find("\\x1B]0;pwned\\x07refused\\u009B31m"), std::string::npos) << out;
   EXPECT_FALSE(actsOnTerminal(out)) << out;
 }
 
