@@ -14,7 +14,10 @@ JOBS="${JOBS:-$(nproc)}"
 cd "$ROOT"
 gen=()
 if [[ ! -f build/debug-asan/CMakeCache.txt ]] && command -v ninja >/dev/null; then gen=(-G Ninja); fi
-cmake --preset debug-asan "${gen[@]}" >/dev/null
+# Debian's python3, the one the packages install numpy for (as scripts/lgp.sh does).
+py=()
+if [[ -x /usr/bin/python3 ]]; then py=(-DPython3_EXECUTABLE=/usr/bin/python3); fi
+cmake --preset debug-asan "${gen[@]}" "${py[@]}" >/dev/null
 cmake --build build/debug-asan -j "$JOBS"
 export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:check_initialization_order=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
