@@ -3,7 +3,9 @@
 #   scripts/lgp.sh run    install the packages the CLI needs (RUN_PACKAGES) where missing,
 #                         build the `lgp` CLI (Release) and only it, run the example search
 #   scripts/lgp.sh test   install every package (RUN_PACKAGES and TEST_PACKAGES), build
-#                         everything (Release), run the whole test suite
+#                         everything (Release; every optional part, whatever the build tree
+#                         cached), run the whole test suite, in which no GPU, MPI, Python or
+#                         daemon test may skip (LGP_TEST_NO_SKIP=1)
 #   scripts/lgp.sh deps   only install every package
 #   scripts/lgp.sh build [TARGET...]  install every package + build the targets (default: all)
 #   scripts/lgp.sh install [PREFIX]   build lgp, lgpd and the libraries, and install them,
@@ -45,8 +47,14 @@ TEST_PACKAGES=(
 # (tests/repo/run_packages_test.sh checks it).
 TEST_FIND_PACKAGES=(GTest benchmark MPI Vulkan glslang SQLite3 httplib PkgConfig pybind11)
 # The cache options of a `run` build: no tests or benchmarks, so GTest and benchmark are not
-# required.
-RUN_CMAKE_ARGS=(-DLGP_BUILD_TESTS=OFF -DLGP_BUILD_BENCH=OFF)
+# required, and no optional part is required either.
+RUN_CMAKE_ARGS=(-DLGP_BUILD_TESTS=OFF -DLGP_BUILD_BENCH=OFF -DLGP_REQUIRE_ALL=OFF)
+# The cache options of a `test` build: every part, whatever an earlier configure cached (a `run`
+# before the packages were there caches LGP_WITH_GPU=OFF and LGP_WITH_MPI=OFF), and a part
+# that cannot be built stops the configure (LGP_REQUIRE_ALL) instead of dropping its tests.
+TEST_CMAKE_ARGS=(-DLGP_BUILD_TESTS=ON -DLGP_BUILD_BENCH=ON -DLGP_WITH_GPU=ON -DLGP_WITH_MPI=ON
+  -DLGP_WITH_PYTHON=ON -DLGP_WITH_DAEMON=ON -DLGP_WITH_EMIT=ON -DLGP_WITH_DATASETS=ON
+  -DLGP_REQUIRE_ALL=ON)
 
 # Installs the given packages where missing.
 deps() {
@@ -67,22 +75,33 @@ deps() {
 }
 
 # Configures the project with the cache options in CMAKE_ARGS (default: tests and benchmarks
-# on) and builds the given targets, or everything. `run` and `test` share the build tree: the
-# libraries and binaries do not depend on those options, so switching does not rebuild them.
+# on). `run` and `test` share the build tree: the libraries and binaries do not depend on
+# those options, so switching does not rebuild them.
 CMAKE_ARGS=(-DLGP_BUILD_TESTS=ON -DLGP_BUILD_BENCH=ON)
-build() {
+configure() {
   # Ninja schedules every compile of the project in one graph; make waits at each library's
   # end with one core idle. An existing build tree keeps the generator it was made with.
   local gen=()
   if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]] && command -v ninja >/dev/null; then gen=(-G Ninja); fi
   # The Python module is for Debian's python3, the one the packages above install numpy for
-  # (another python3 first on PATH, e.g. pyenv's, may lack it).
+  # (another python3 first on PATH, e.g. pyenv's, may lack it), also in a tree configured
+  # before by other means.
   local py=()
-  if [[ -x /usr/bin/python3 && ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
-    py=(-DPython3_EXECUTABLE=/usr/bin/python3)
+  if [[ -x /usr/bin/python3 ]]; then py=(-DPython3_EXECUTABLE=/usr/bin/python3); fi
+  # A package searched for before it was installed is cached as NOTFOUND; those entries are
+  # dropped so that each search runs again (the others keep the tree's choices).
+  local stale=()
+  if [[ -f "$BUILD_DIR/CMakeCache.txt" ]]; then
+    while IFS= read -r name; do stale+=(-U "$name"); done < <(
+      sed -n 's/^\([A-Za-z0-9_.+-]*\):[A-Z]*=.*-NOTFOUND$/\1/p' "$BUILD_DIR/CMakeCache.txt")
   fi
-  cmake -S "$ROOT" -B "$BUILD_DIR" "${gen[@]}" -DCMAKE_BUILD_TYPE=Release "${CMAKE_ARGS[@]}" \
-    "${py[@]}" >/dev/null
+  cmake -S "$ROOT" -B "$BUILD_DIR" "${gen[@]}" "${stale[@]}" -DCMAKE_BUILD_TYPE=Release \
+    "${CMAKE_ARGS[@]}" "${py[@]}" >/dev/null
+}
+
+# configure, then build the given targets, or everything.
+build() {
+  configure
   if (($# > 0)); then
     cmake --build "$BUILD_DIR" -j "$JOBS" --target "$@"
   else
@@ -126,8 +145,12 @@ case "$cmd" in
     ;;
   test)
     deps "${RUN_PACKAGES[@]}" "${TEST_PACKAGES[@]}"
+    CMAKE_ARGS=("${TEST_CMAKE_ARGS[@]}")
     build
-    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600
+    # Every package the tests need is installed now: a GPU, MPI, Python or daemon test that
+    # would skip fails instead (tests/skip.hpp, tests/python/conftest.py).
+    LGP_TEST_NO_SKIP=1 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" --timeout 600 \
+      --no-tests=error
     ;;
   *)
     echo "usage: scripts/lgp.sh run|test|deps|build|install [PREFIX]" >&2

@@ -2,8 +2,10 @@
 #include "lgp/emit/gpu_cost.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
+#include <tuple>
 #include <unordered_map>
 
 #include "gpu_process.hpp"
@@ -48,8 +50,21 @@ class StatsCache {
   std::unordered_map<uint64_t, IsaStats> map_;
 };
 
-double stat(const nlohmann::json& s, const char* name) {
-  return s.contains(name) && s[name].is_number() ? s[name].get<double>() : 0.0;
+// One statistic of the worker's reply: a finite number >= 0 (ACO's counts and cycles), or an
+// error naming it. `required`: the cost objective's unit must be there; the others are 0 where
+// a driver does not report them. Anything else is a worker gone wrong, not 0 instructions.
+Status stat(const nlohmann::json& s, const char* name, bool required, double& out) {
+  out = 0;
+  const auto it = s.is_object() ? s.find(name) : s.end();
+  if (it == s.end()) {
+    if (!required) return Status::ok();
+    return Status::error(std::string("the worker's statistics lack \"") + name + "\"");
+  }
+  if (!it->is_number() || !std::isfinite(it->get<double>()) || it->get<double>() < 0)
+    return Status::error(std::string("the worker's statistic \"") + name +
+                         "\" is not a count (got " + it->dump().substr(0, 40) + ")");
+  out = it->get<double>();
+  return Status::ok();
 }
 
 }  // namespace
@@ -85,13 +100,19 @@ Expected<IsaStats> shaderIsaStats(GpuFamily f, Language lang, const std::string&
   auto r = detail::gpuRequest(statsDriver(f),
                               {{"op", "stats"}, {"lang", std::string(lname)}, {"source", shader}});
   if (!r) return r.status();
-  const auto& st = (*r)["stats"];
-  s.instructions = stat(st, "Instructions");
-  s.latency = stat(st, "Latency");
-  s.inverse_throughput = stat(st, "Inverse Throughput");
-  s.vgprs = stat(st, "VGPRs");
-  s.sgprs = stat(st, "SGPRs");
-  s.code_bytes = stat(st, "Code size");
+  const auto st = r->find("stats");
+  if (st == r->end() || !st->is_object())
+    return Status::error("lgp-gpu-worker: a reply without statistics");
+  const std::tuple<const char*, double*, bool> fields[] = {
+      {"Instructions", &s.instructions, true},
+      {"Latency", &s.latency, false},
+      {"Inverse Throughput", &s.inverse_throughput, false},
+      {"VGPRs", &s.vgprs, false},
+      {"SGPRs", &s.sgprs, false},
+      {"Code size", &s.code_bytes, false}};
+  for (const auto& [name, field, required] : fields)
+    if (auto ok = stat(*st, name, required, *field); !ok)
+      return Status::error("lgp-gpu-worker: " + ok.message());
   StatsCache::instance().put(key, s);
   return s;
 }

@@ -13,11 +13,14 @@
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
 #include <mutex>
+
+#include "lgp/config/json_reader.hpp"
 
 extern char** environ;
 
@@ -37,7 +40,30 @@ bool executable(const fs::path& p) {
   return fs::is_regular_file(p, ec) && ::access(p.c_str(), X_OK) == 0;
 }
 
+// $LGP_GPU_TIMEOUT_S in milliseconds, else `fallback_ms`.
+int timeoutMs(int fallback_ms) {
+  const std::string v = envOr("LGP_GPU_TIMEOUT_S");
+  char* end = nullptr;
+  const double s = v.empty() ? 0 : std::strtod(v.c_str(), &end);
+  if (v.empty() || end == v.c_str() || *end != 0 || !(s > 0) || s > 86400) return fallback_ms;
+  return std::max(1, static_cast<int>(s * 1000));
+}
+
+// A worker's line as JSON (a parse error is null): the limits of every other JSON lgp reads.
+nlohmann::json parseLine(const std::string& line) {
+  auto j = parseJson(line);
+  return j ? std::move(*j) : nlohmann::json();
+}
+
 }  // namespace
+
+int greetingTimeoutMs() {
+  return timeoutMs(180000);
+}
+
+int requestTimeoutMs() {
+  return timeoutMs(120000);
+}
 
 Expected<std::string> gpuWorkerPath() {
   if (const std::string e = envOr("LGP_GPU_WORKER"); !e.empty()) {
@@ -68,8 +94,14 @@ Expected<std::string> vulkanIcd(const std::string& stem) {
   const char* var = stem == "radeon_icd" ? "LGP_RADV_ICD" : "LGP_LAVAPIPE_ICD";
   if (const std::string e = envOr(var); !e.empty()) {
     std::error_code ec;
-    if (fs::is_regular_file(e, ec)) return e;
-    return Status::error(std::string(var) + "=" + e + ": no such file");
+    const auto st = fs::status(e, ec);
+    if (fs::is_regular_file(st)) return e;
+    return Status::error(std::string(var) + "=" + e + ": " +
+                         (!fs::exists(st) ? "no such file"
+                          : fs::is_directory(st)
+                              ? "a directory, not a driver manifest (a .json file)"
+                              : "not a regular file (a device, FIFO or socket), not a driver "
+                                "manifest (a .json file)"));
   }
   std::vector<fs::path> dirs;
   const std::string home = envOr("HOME");
@@ -119,7 +151,7 @@ std::vector<std::string> workerEnvironment(const DriverSpec& d, const std::strin
   return env;
 }
 
-Expected<std::unique_ptr<GpuProcess>> GpuProcess::start(const DriverSpec& d) {
+Expected<std::unique_ptr<GpuProcess>> GpuProcess::start(const DriverSpec& d, bool* timed_out) {
   auto exe = gpuWorkerPath();
   if (!exe) return exe.status();
   auto icd = vulkanIcd(d.mode == "stats" ? "radeon_icd" : "lvp_icd");
@@ -149,15 +181,24 @@ Expected<std::unique_ptr<GpuProcess>> GpuProcess::start(const DriverSpec& d) {
   p->pid_ = pid;
   p->fd_ = sv[0];
   // Driver start-up (LLVM for lavapipe) takes seconds on a loaded machine.
-  auto line = p->readLine(180000);
-  if (!line) return Status::error("lgp-gpu-worker (" + d.key() + "): " + line.error());
-  try {
-    p->hello_ = nlohmann::json::parse(*line);
-  } catch (const std::exception&) {
-    return Status::error("lgp-gpu-worker (" + d.key() + "): unreadable greeting");
+  auto line = p->readLine(greetingTimeoutMs(), size_t{64} << 10);
+  if (!line) {
+    if (timed_out) *timed_out = p->timed_out_;
+    return Status::error(
+        "lgp-gpu-worker (" + d.key() + "): " +
+        (p->timed_out_ ? "no greeting within " + std::to_string(greetingTimeoutMs() / 1000) + " s"
+                       : line.error()));
   }
-  if (!p->hello_.value("ok", false))
-    return Status::error(p->hello_.value("error", std::string("the worker failed to start")));
+  p->hello_ = parseLine(*line);
+  if (!p->hello_.is_object())
+    return Status::error("lgp-gpu-worker (" + d.key() + "): unreadable greeting");
+  const auto ok = p->hello_.find("ok");
+  if (ok == p->hello_.end() || *ok != true) {
+    const auto why = p->hello_.find("error");
+    return Status::error(why != p->hello_.end() && why->is_string()
+                             ? why->get<std::string>()
+                             : std::string("the worker failed to start"));
+  }
   return p;
 }
 
@@ -186,20 +227,27 @@ void GpuProcess::kill() {
   }
 }
 
-Expected<std::string> GpuProcess::readLine(int timeout_ms) {
+Expected<std::string> GpuProcess::readLine(int timeout_ms, size_t max_bytes) {
+  timed_out_ = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  size_t scanned = 0;  // bytes of buf_ known to hold no newline
   for (;;) {
-    if (const size_t nl = buf_.find('\n'); nl != std::string::npos) {
+    if (const size_t nl = buf_.find('\n', scanned); nl != std::string::npos) {
+      if (nl > max_bytes) break;
       std::string line = buf_.substr(0, nl);
       buf_.erase(0, nl + 1);
       return line;
     }
+    scanned = buf_.size();
+    // Nothing a request asks for is this long: a worker gone wrong is not buffered whole.
+    if (buf_.size() > max_bytes) break;
     if (fd_ < 0) return Status::error("the worker is gone");
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
                           deadline - std::chrono::steady_clock::now())
                           .count();
     if (left <= 0) {
       kill();
+      timed_out_ = true;
       return Status::error("no reply within " + std::to_string(timeout_ms / 1000) + " s");
     }
     pollfd pfd{fd_, POLLIN, 0};
@@ -215,9 +263,13 @@ Expected<std::string> GpuProcess::readLine(int timeout_ms) {
     }
     buf_.append(chunk, static_cast<size_t>(n));
   }
+  kill();
+  return Status::error("a reply line longer than " + std::to_string(max_bytes) +
+                       " bytes (the most this request can need)");
 }
 
-Expected<nlohmann::json> GpuProcess::request(const nlohmann::json& req, int timeout_ms) {
+Expected<nlohmann::json> GpuProcess::request(const nlohmann::json& req, int timeout_ms,
+                                             size_t max_reply_bytes) {
   if (fd_ < 0) return Status::error("the worker is gone");
   const std::string line =
       req.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
@@ -230,14 +282,14 @@ Expected<nlohmann::json> GpuProcess::request(const nlohmann::json& req, int time
     }
     off += static_cast<size_t>(n);
   }
-  auto reply = readLine(timeout_ms);
+  auto reply = readLine(timeout_ms, max_reply_bytes);
   if (!reply) return reply.status();
-  try {
-    return nlohmann::json::parse(*reply);
-  } catch (const std::exception&) {
+  auto j = parseLine(*reply);
+  if (!j.is_object()) {
     kill();
     return Status::error("unreadable reply from the worker");
   }
+  return j;
 }
 
 namespace {
@@ -279,15 +331,28 @@ class Pool {
     }
     ++running_[key];
     lock.unlock();
-    auto p = GpuProcess::start(d);
+    bool timed_out = false;
+    auto p = GpuProcess::start(d, &timed_out);
     lock.lock();
     if (!p) {
       --running_[key];
-      if (running_[key] == 0) failed_[key] = p.error();
+      if (timed_out)
+        markHungLocked(key, p.error());
+      else if (running_[key] == 0)
+        failed_.emplace(key, p.error());
       cv_.notify_all();
       return p.status();
     }
     return std::make_unique<Lease>(this, key, std::move(*p));
+  }
+
+  // A driver that let a greeting or a request time out: every later request fails at once,
+  // and the user is told once. A hung driver would otherwise cost the whole timeout per
+  // request (per member of every front, per candidate of the search), silently.
+  void markHung(const std::string& key, const std::string& why) {
+    std::lock_guard lock(mu_);
+    markHungLocked(key, why);
+    cv_.notify_all();
   }
 
   void release(const std::string& key, std::unique_ptr<GpuProcess> p) {
@@ -305,18 +370,35 @@ class Pool {
   std::map<std::string, std::vector<std::unique_ptr<GpuProcess>>> idle_;
   std::map<std::string, int> running_;
   std::map<std::string, std::string> failed_;
+
+  void markHungLocked(const std::string& key, const std::string& why) {
+    if (failed_.emplace(key, why + " (earlier in this process; not tried again)").second)
+      std::fprintf(stderr,
+                   "warning: %s; this GPU driver is not used again by this process (measured "
+                   "cost and Vulkan runs that need it are left out)\n",
+                   why.c_str());
+  }
 };
 
 }  // namespace
 
 Expected<nlohmann::json> gpuRequest(const DriverSpec& d, const nlohmann::json& req,
-                                    int timeout_ms) {
+                                    size_t max_reply_bytes) {
   auto lease = Pool::instance().acquire(d);
   if (!lease) return lease.status();
-  auto r = (*lease)->proc->request(req, timeout_ms);
-  if (!r) return Status::error("lgp-gpu-worker (" + d.key() + "): " + r.error());
-  if (!r->value("ok", false))
-    return Status::error(r->value("error", std::string("the worker reported a failure")));
+  auto r = (*lease)->proc->request(req, requestTimeoutMs(), max_reply_bytes);
+  if (!r) {
+    const std::string why = "lgp-gpu-worker (" + d.key() + "): " + r.error();
+    if ((*lease)->proc->timedOut()) Pool::instance().markHung(d.key(), why);
+    return Status::error(why);
+  }
+  const auto ok = r->find("ok");
+  if (ok == r->end() || *ok != true) {
+    const auto why = r->find("error");
+    return Status::error(why != r->end() && why->is_string()
+                             ? why->get<std::string>()
+                             : std::string("the worker reported a failure"));
+  }
   return r;
 }
 

@@ -43,22 +43,30 @@ Expected<std::vector<std::vector<float>>> runEmitted(const Emitted& e, Language 
   nlohmann::json in = nlohmann::json::array();
   for (size_t r = 0; r < n; ++r)
     for (size_t i = 0; i < ni; ++i) in.push_back(static_cast<float>(t.inputs[i][r]));
-  auto reply = detail::gpuRequest(kLavapipe, {{"op", "run"},
-                                              {"lang", std::string(toString(lang))},
-                                              {"source", *shader},
-                                              {"rows", n},
-                                              {"in_stride", ni},
-                                              {"out_stride", k},
-                                              {"inputs", in}});
+  // The reply: n * k 32-bit patterns, at most 10 digits and a comma each.
+  const size_t max_reply = n * k * 11 + (size_t{64} << 10);
+  auto reply = detail::gpuRequest(kLavapipe,
+                                  {{"op", "run"},
+                                   {"lang", std::string(toString(lang))},
+                                   {"source", *shader},
+                                   {"rows", n},
+                                   {"in_stride", ni},
+                                   {"out_stride", k},
+                                   {"inputs", in}},
+                                  max_reply);
   if (!reply) return reply.status();
-  const auto& bits = (*reply)["output_bits"];
-  if (!bits.is_array() || bits.size() != n * k)
-    return Status::error("the driver returned " + std::to_string(bits.size()) +
+  const auto it = reply->find("output_bits");
+  if (it == reply->end() || !it->is_array() || it->size() != n * k)
+    return Status::error("the driver returned " +
+                         std::to_string(it != reply->end() && it->is_array() ? it->size() : 0) +
                          " values, expected " + std::to_string(n * k));
   std::vector<std::vector<float>> out(k, std::vector<float>(n));
   for (size_t r = 0; r < n; ++r)
     for (size_t j = 0; j < k; ++j) {
-      const uint32_t b = bits[r * k + j].get<uint32_t>();
+      const auto& v = (*it)[r * k + j];
+      if (!v.is_number_unsigned() || v.get<uint64_t>() > 0xFFFFFFFFu)
+        return Status::error("the driver returned a value that is not a 32-bit pattern");
+      const auto b = static_cast<uint32_t>(v.get<uint64_t>());
       std::memcpy(&out[j][r], &b, sizeof(float));
     }
   return out;

@@ -13,12 +13,14 @@
 #include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/vulkan_run.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/io/terminal_text.hpp"
 #include "table_source.hpp"
 
 namespace {
 
+// Messages quote names from the front file: shown as text, never as escape sequences.
 int fail(const std::string& msg) {
-  std::fprintf(stderr, "error: %s\n", msg.c_str());
+  std::fprintf(stderr, "error: %s\n", lgp::terminalSafe(msg).c_str());
   return 2;
 }
 

@@ -8,6 +8,7 @@
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/io/terminal_text.hpp"
 #include "table_source.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/gpu_cost.hpp"
@@ -59,7 +60,7 @@ int frontMain(int argc, char** argv) {
   const std::string path = args["front"].as<std::string>();
   auto front = lgp::readFrontJson(path);
   if (!front) {
-    std::fprintf(stderr, "error: %s\n", front.error().c_str());
+    std::fprintf(stderr, "error: %s\n", lgp::terminalSafe(front.error()).c_str());
     return 2;
   }
   lgp::FrontTableOptions to;
@@ -67,7 +68,7 @@ int frontMain(int argc, char** argv) {
   std::string snapped_note;
   if (args.count("snap")) {
     auto fail = [&](const std::string& m) {
-      std::fprintf(stderr, "error: %s: %s\n", path.c_str(), m.c_str());
+      std::fprintf(stderr, "error: %s\n", lgp::terminalSafe(path + ": " + m).c_str());
       return 2;
     };
     lgp::SnapOptions so;
@@ -102,10 +103,10 @@ int frontMain(int argc, char** argv) {
     const auto& info = (*front)["cost_measured_info"];
     if (info.contains("unavailable"))
       std::fprintf(stderr, "warning: --measure: %s\n",
-                   info["unavailable"].get<std::string>().c_str());
+                   lgp::terminalSafe(info["unavailable"].get<std::string>()).c_str());
     if (args.count("out") && !args.count("daemon"))
       if (auto st = lgp::writeFrontJson(*front, args["out"].as<std::string>()); !st) {
-        std::fprintf(stderr, "error: %s\n", st.message().c_str());
+        std::fprintf(stderr, "error: %s\n", lgp::terminalSafe(st.message()).c_str());
         return 1;
       }
 #else
@@ -114,14 +115,22 @@ int frontMain(int argc, char** argv) {
 #endif
   }
   if (args.count("json")) {
-    std::cout << (*front)["members"].dump(2) << "\n";
+    std::cout << lgp::terminalJson((*front)["members"]) << "\n";
     return 0;
   }
+  // Every text of the file is printed as text: the file may hold escape sequences.
   const auto& t = (*front)["table"];
+  const auto field = [&](const char* key) {
+    const auto it = front->find(key);
+    return it != front->end() && it->is_string() ? lgp::terminalSafe(it->get<std::string>())
+                                                 : std::string("?");
+  };
+  const auto rows = t.find("rows");
   std::printf("front: %zu members; table %s -> %s, %zu rows; cost model %s; error %s\n",
-              (*front)["members"].size(), t["inputs"].dump().c_str(), t["outputs"].dump().c_str(),
-              t.value("rows", size_t{0}), front->value("cost_model", "?").c_str(),
-              front->value("error_metric", "?").c_str());
+              (*front)["members"].size(), lgp::terminalSafe(t["inputs"].dump()).c_str(),
+              lgp::terminalSafe(t["outputs"].dump()).c_str(),
+              rows != t.end() && rows->is_number_unsigned() ? rows->get<size_t>() : size_t{0},
+              field("cost_model").c_str(), field("error_metric").c_str());
   std::fputs(lgp::formatFrontTable(*front, to).c_str(), stdout);
   std::fputs(snapped_note.c_str(), stdout);
   return 0;

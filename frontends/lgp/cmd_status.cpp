@@ -10,6 +10,7 @@
 #include "cli_args.hpp"
 #include "commands.hpp"
 #include "daemon_client.hpp"
+#include "lgp/io/terminal_text.hpp"
 
 namespace lgp::cli {
 namespace {
@@ -21,6 +22,21 @@ std::string num(const json& v, const char* fmt = "%.4g") {
   char buf[64];
   std::snprintf(buf, sizeof buf, fmt, v.get<double>());
   return buf;
+}
+
+// A field of the daemon's answer, null when absent (a hostile or broken daemon may send
+// anything; const operator[] on a missing key is undefined behaviour).
+const json& field(const json& r, const char* key) {
+  static const json null;
+  if (!r.is_object()) return null;
+  const auto it = r.find(key);
+  return it != r.end() ? *it : null;
+}
+
+// A string field, as text for the terminal ("" when absent or not a string).
+std::string text(const json& r, const char* key) {
+  const json& v = field(r, key);
+  return v.is_string() ? terminalSafe(v.get<std::string>()) : "";
 }
 
 std::string generations(const json& r) {
@@ -57,42 +73,44 @@ int statusMain(int argc, char** argv) {
   }
   json j = *got;
   if (args.count("json")) {
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", terminalJson(j).c_str());
     return 0;
   }
   if (!one) {
     std::printf("%-16s  %-9s  %11s  %12s  %10s  %5s  %s\n", "RUN", "STATUS", "GENERATION",
                 "EVALUATIONS", "BEST ERROR", "FRONT", "NAME");
     for (const auto& run : j.value("runs", json::array()))
-      std::printf("%-16s  %-9s  %11s  %12llu  %10s  %5lld  %s\n", run.value("id", "").c_str(),
-                  run.value("status", "").c_str(), generations(run).c_str(),
+      std::printf("%-16s  %-9s  %11s  %12llu  %10s  %5lld  %s\n", text(run, "id").c_str(),
+                  text(run, "status").c_str(), generations(run).c_str(),
                   static_cast<unsigned long long>(run.value("evaluations", uint64_t{0})),
-                  num(run["best_error"]).c_str(),
-                  static_cast<long long>(run.value("front_size", 0)),
-                  run.value("name", "").c_str());
+                  num(field(run, "best_error")).c_str(),
+                  static_cast<long long>(run.value("front_size", 0)), text(run, "name").c_str());
     return 0;
   }
-  std::printf("run          %s%s\n", j.value("id", "").c_str(),
-              j.value("name", "").empty() ? "" : ("  (" + j.value("name", "") + ")").c_str());
-  std::printf("status       %s\n", j.value("status", "").c_str());
+  const std::string name = text(j, "name");
+  std::printf("run          %s%s\n", text(j, "id").c_str(),
+              name.empty() ? "" : ("  (" + name + ")").c_str());
+  std::printf("status       %s\n", text(j, "status").c_str());
   std::printf("generation   %s\n", generations(j).c_str());
   std::printf("evaluations  %llu (%s/s)\n",
               static_cast<unsigned long long>(j.value("evaluations", uint64_t{0})),
-              num(j["evals_per_s"], "%.3g").c_str());
-  std::printf("elapsed      %s s\n", num(j["elapsed_s"], "%.1f").c_str());
+              num(field(j, "evals_per_s"), "%.3g").c_str());
+  std::printf("elapsed      %s s\n", num(field(j, "elapsed_s"), "%.1f").c_str());
   std::printf("front        %lld members\n", static_cast<long long>(j.value("front_size", 0)));
   const json& best = j.value("best", json::object());
   for (const char* k : {"error", "cost", "discontinuity"}) {
     if (!best.contains(k)) continue;
-    std::printf("best %-13s %s (member %d)\n", k, num(best[k]["value"]).c_str(),
-                best[k].value("member", -1));
+    std::printf("best %-13s %s (member %s)\n", k, num(field(field(best, k), "value")).c_str(),
+                num(field(field(best, k), "member"), "%.0f").c_str());
   }
-  if (j.contains("checkpoint") && j["checkpoint"].is_object())
-    std::printf("checkpoint   generation %d\n", j["checkpoint"].value("generation", 0));
+  if (field(j, "checkpoint").is_object())
+    std::printf("checkpoint   generation %s\n",
+                num(field(field(j, "checkpoint"), "generation"), "%.0f").c_str());
   if (j.value("resumes", 0) > 0) std::printf("resumed      %d time(s)\n", j.value("resumes", 0));
-  if (!j.value("stop_reason", "").empty())
-    std::printf("stopped by   %s\n", j.value("stop_reason", "").c_str());
-  if (j.contains("error")) std::printf("error        %s\n", j["error"].dump().c_str());
+  if (const std::string why = text(j, "stop_reason"); !why.empty())
+    std::printf("stopped by   %s\n", why.c_str());
+  if (j.contains("error"))
+    std::printf("error        %s\n", terminalSafe(j["error"].dump()).c_str());
   return 0;
 }
 

@@ -19,6 +19,7 @@
 #include "lgp/config/config.hpp"
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/io/terminal_text.hpp"
 
 namespace lgp::cli {
 namespace {
@@ -107,7 +108,14 @@ int submitMain(int argc, char** argv) {
                  r->errorMessage().c_str(), r->status);
     return 1;
   }
-  const std::string id = r->json().value("id", "");
+  const json reply = r->json();
+  const std::string id = reply.is_object() && reply.contains("id") && reply["id"].is_string()
+                             ? terminalSafe(reply["id"].get<std::string>())
+                             : "";
+  if (id.empty() || id.find_first_not_of("0123456789abcdef") != std::string::npos) {
+    std::fprintf(stderr, "error: %s answered 201 without a run id\n", url.c_str());
+    return 1;
+  }
   std::printf("%s\n", id.c_str());
   std::fflush(stdout);
   std::fprintf(stderr, "queued run %s on %s\n", id.c_str(), url.c_str());
@@ -126,7 +134,13 @@ int submitMain(int argc, char** argv) {
       return 1;
     }
     json j = s->json();
-    std::string status = j.value("status", "");
+    if (!j.is_object()) {
+      std::fprintf(stderr, "error: %s: the run's status is not a JSON object\n", url.c_str());
+      return 1;
+    }
+    const std::string status = j.contains("status") && j["status"].is_string()
+                                   ? terminalSafe(j["status"].get<std::string>())
+                                   : "";
     char line[256];
     std::snprintf(line, sizeof line, "%s: gen %d, %llu evals, %.1f s, front %lld", status.c_str(),
                   j.value("generation", 0),
@@ -136,7 +150,8 @@ int submitMain(int argc, char** argv) {
     last = line;
     if (status == "finished") return 0;
     if (status == "failed" || status == "cancelled") {
-      if (j.contains("error")) std::fprintf(stderr, "error: %s\n", j["error"].dump().c_str());
+      if (j.contains("error"))
+        std::fprintf(stderr, "error: %s\n", terminalSafe(j["error"].dump()).c_str());
       return 1;
     }
   }

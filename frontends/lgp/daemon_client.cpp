@@ -8,7 +8,9 @@
 #include <httplib.h>
 #endif
 
+#include "lgp/config/json_reader.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/io/terminal_text.hpp"
 
 namespace lgp::cli {
 
@@ -23,14 +25,18 @@ std::string daemonUrl(const std::string& flag) {
 }
 
 nlohmann::json DaemonReply::json() const {
-  return nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
+  // With the limits of every JSON lgp reads: a hostile daemon's 100k-deep answer would
+  // overflow the stack when printed.
+  auto j = parseJson(body);
+  return j ? std::move(*j) : nlohmann::json();
 }
 
 std::string DaemonReply::errorMessage() const {
   auto j = json();
+  // The server's text is shown as text (a hostile one may send escape sequences).
   if (j.is_object() && j.contains("error") && j["error"].is_string())
-    return j["error"].get<std::string>();
-  return body.empty() ? "HTTP " + std::to_string(status) : body;
+    return terminalSafe(j["error"].get<std::string>());
+  return body.empty() ? "HTTP " + std::to_string(status) : terminalSafe(body.substr(0, 2000));
 }
 
 #ifdef LGP_HAVE_HTTPLIB
@@ -83,8 +89,9 @@ int daemonFront(const std::string& url, const std::string& run, const std::strin
     return 1;
   }
   auto front = *got;
-  if (!front.is_object()) {
-    std::fprintf(stderr, "error: the daemon's front is not JSON\n");
+  // Checked as `lgp front` checks a file: the table's names reach the terminal.
+  if (auto s = checkFrontJson(front, url + " run " + terminalSafe(run) + " front"); !s) {
+    std::fprintf(stderr, "error: %s\n", terminalSafe(s.message()).c_str());
     return 1;
   }
   if (!out_path.empty()) {
@@ -95,11 +102,13 @@ int daemonFront(const std::string& url, const std::string& run, const std::strin
     }
   }
   if (json) {
-    std::printf("%s\n", front.dump(2).c_str());
+    std::printf("%s\n", terminalJson(front).c_str());
   } else {
     const auto& info = front.value("lgpd", nlohmann::json::object());
-    std::printf("run %s: %s front at generation %d\n", run.c_str(),
-                info.value("final", false) ? "final" : "live", info.value("generation", 0));
+    const auto final = info.find("final"), gen = info.find("generation");
+    std::printf("run %s: %s front at generation %s\n", terminalSafe(run).c_str(),
+                final != info.end() && *final == true ? "final" : "live",
+                gen != info.end() && gen->is_number_integer() ? gen->dump().c_str() : "?");
     std::printf("%s", formatFrontTable(front).c_str());
   }
   return 0;

@@ -9,7 +9,10 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <optional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "http_server.hpp"
 #include "lgp/config/json_reader.hpp"
@@ -125,6 +128,41 @@ std::optional<size_t> parseIndex(const std::string& s) {
   return v;
 }
 
+// Whether the front was made on a table with exactly these input and output columns.
+bool sameColumns(const json& front, const lgp::Table& t) {
+  const auto table = front.find("table");
+  if (table == front.end() || !table->is_object()) return false;
+  const auto names = [&](const char* key) {
+    std::vector<std::string> out;
+    const auto it = table->find(key);
+    if (it == table->end() || !it->is_array()) return std::optional<std::vector<std::string>>();
+    for (const auto& n : *it) {
+      if (!n.is_string()) return std::optional<std::vector<std::string>>();
+      out.push_back(n.get<std::string>());
+    }
+    return std::optional(out);
+  };
+  return names("inputs") == t.input_names && names("outputs") == t.output_names;
+}
+
+std::string columnList(const std::vector<std::string>& inputs,
+                       const std::vector<std::string>& outputs) {
+  std::string s;
+  for (const auto& n : inputs) s += (s.empty() ? "" : ", ") + n;
+  s += " -> ";
+  for (size_t i = 0; i < outputs.size(); ++i) s += (i ? ", " : "") + outputs[i];
+  return s;
+}
+
+std::string columnList(const json& front) {
+  std::vector<std::string> in, out;
+  const json table = front.value("table", json::object());
+  for (const auto& [key, list] : {std::pair{"inputs", &in}, std::pair{"outputs", &out}})
+    if (table.contains(key) && table[key].is_array())
+      for (const auto& n : table[key]) list->push_back(n.is_string() ? n.get<std::string>() : "?");
+  return columnList(in, out);
+}
+
 json numberOrNull(double v) {
   return std::isfinite(v) ? json(v) : json(nullptr);
 }
@@ -209,11 +247,19 @@ class Api {
   void dispatch(const HttpRequest& req, HttpResponse& res) {
     const bool get = req.method == "GET" || req.method == "HEAD";
     if (get && (req.path == "/" || req.path == "/index.html")) {
+      // The script comes from /app.js only: an injected inline script would not run. No site
+      // may frame the page (a framing page could lure clicks onto its buttons).
       res.setHeader("Content-Security-Policy",
-                    "default-src 'self'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
-                    "img-src 'self' data:; connect-src 'self'");
+                    "default-src 'self'; script-src 'self'; style-src 'unsafe-inline'; "
+                    "img-src 'self' data:; connect-src 'self'; frame-ancestors 'none'; "
+                    "base-uri 'none'; form-action 'none'");
       res.status = 200;
       res.setContent(web::kIndexHtml, "text/html; charset=utf-8");
+      return;
+    }
+    if (get && req.path == "/app.js") {
+      res.status = 200;
+      res.setContent(web::kAppJs, "text/javascript; charset=utf-8");
       return;
     }
     if (!isApi(req.path)) return sendError(res, 404, "no such route");
@@ -412,11 +458,14 @@ class Api {
   }
 
   void listRuns(HttpResponse& res) {
-    auto runs = store_.listRuns();
+    std::vector<std::string> unreadable;
+    auto runs = store_.listRuns(&unreadable);
     if (!runs) return sendError(res, 500, "store error: " + runs.error());
     json list = json::array();
     for (const auto& r : *runs) list.push_back(runSummary(r, jobs_.isActive(r.id)));
-    sendJson(res, 200, {{"runs", list}});
+    json body = {{"runs", list}};
+    if (!unreadable.empty()) body["unreadable"] = unreadable;
+    sendJson(res, 200, body);
   }
 
   void submit(const std::string& text, HttpResponse& res) {
@@ -594,9 +643,16 @@ class Api {
     }
     auto& table = *loaded;
     if (!table) return sendError(res, 500, "cannot load the run's table: " + table.error());
+    const lgp::Table& t = **table;
+    // The table is read as it is now: its file may have been rewritten since the front was
+    // stored, and the program would read columns that are not there (or other ones).
+    if (!sameColumns(f->front, t))
+      return sendError(
+          res, 409,
+          "the run's table no longer has the front's columns (the front: " + columnList(f->front) +
+              "; the table now: " + columnList(t.input_names, t.output_names) + ")");
     auto program = lgp::memberProgram(f->front, k);
     if (!program) return sendError(res, 500, "cannot decode member: " + program.error());
-    const lgp::Table& t = **table;
     int block = cfg->eval.block_size;
     lgp::Dataset ds(t, block);
     lgp::Interpreter interp(block);
@@ -663,6 +719,7 @@ HttpHandlers makeApi(Store& store, JobManager& jobs) {
   h.head = [api](const HttpRequest& req, HttpResponse& res) { api->head(req, res); };
   h.route = [api](const HttpRequest& req, HttpResponse& res) { api->dispatch(req, res); };
   h.default_headers = {{"X-Content-Type-Options", "nosniff"},
+                       {"X-Frame-Options", "DENY"},
                        {"Cache-Control", "no-store"},
                        {"Referrer-Policy", "no-referrer"}};
   return h;

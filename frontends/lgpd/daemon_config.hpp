@@ -60,8 +60,9 @@ struct DaemonConfig {
   // Runs waiting in the queue at most; past it POST /api/v1/runs answers 429 with
   // Retry-After (kQueueRetryAfterS).
   int max_queued_runs = 64;
-  // The memory a run's search may need (an estimate from population and program shape,
-  // estimateSearchBytes), in MiB; a submission above it gets a 400 naming /search/population.
+  // The memory a run's search may need (an estimate from population, program shape, islands
+  // and the semantic cache, estimateSearchBytes), in MiB; a submission above it gets a 400
+  // naming the field that weighs most.
   // 0 = half the machine's physical memory.
   int64_t max_run_memory_mb = 0;
   MpiDaemonConfig mpi;

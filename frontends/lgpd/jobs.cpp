@@ -76,13 +76,6 @@ std::string newRunId() {
   return buf;
 }
 
-bool isValidRunId(const std::string& id) {
-  if (id.size() != 16) return false;
-  for (char c : id)
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  return true;
-}
-
 json bestPerObjective(const json& front) {
   json best = json::object();
   if (!front.is_object() || !front.contains("members") || !front["members"].is_array()) return best;
@@ -205,6 +198,7 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   auto cfg = lgp::parseRunConfig(j, cfg_.data_base_dir);
   if (!cfg) return cfg.status();
   if (auto s = checkSearchMemory(*cfg, cfg_.runMemoryBytes()); !s) return s;
+  if (auto s = checkServedByLgpd(*cfg); !s) return s;
   if (cfg->mpi.np > 0) {
     if (cfg->mpi.np > cfg_.mpi.max_np)
       return Status::error("/mpi/np: must be in [1, " + std::to_string(cfg_.mpi.max_np) +
@@ -637,6 +631,7 @@ void JobManager::runJob(Job& job) {
 
     auto cfg = config(run);
     if (!cfg) return fail(cfg.error());
+    if (auto s = checkServedByLgpd(*cfg); !s) return fail(s.message());
     if (auto s = resolveInlineTable(run); !s) return fail(s.message());
     // Submit checked the files; they may have changed since (a FIFO must never be opened in
     // a way that blocks), and a file inside allowed_data_dirs may have been replaced by a

@@ -158,10 +158,9 @@ class JobManager {
 // start count, Store::beginStart) is failed instead of being started again.
 inline constexpr int kMaxStartAttempts = 2;
 
-// Run ids: 16 lowercase hex digits from a random source. isValidRunId accepts exactly that
-// shape, so ids never carry path or SQL syntax.
+// Run ids: 16 lowercase hex digits from a random source (isValidRunId, store.hpp, accepts
+// exactly that shape).
 std::string newRunId();
-bool isValidRunId(const std::string& id);
 
 // {"error":..,"cost":..,"discontinuity":..}: the best value of each objective over a front.
 nlohmann::json bestPerObjective(const nlohmann::json& front);

@@ -13,6 +13,9 @@
 #include <fstream>
 #include <limits>
 
+#include "lgp/config/json_reader.hpp"
+#include "lgp/io/terminal_text.hpp"
+
 namespace lgpd {
 
 using lgp::Expected;
@@ -45,6 +48,13 @@ std::optional<RunStatus> runStatusFromString(std::string_view s) {
                  RunStatus::Failed})
     if (toString(v) == s) return v;
   return std::nullopt;
+}
+
+bool isValidRunId(const std::string& id) {
+  if (id.size() != 16) return false;
+  for (char c : id)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  return true;
 }
 
 namespace {
@@ -213,8 +223,52 @@ std::vector<uint8_t> toCbor(const json& j) {
   return json::to_cbor(j);
 }
 
+// Rows are read with the limits of a request body: a row written by hand (or by a tool gone
+// wrong) nested deeper than lgp::JsonLimits::max_depth would overflow the stack when it is
+// parsed (CBOR recurses), copied or dumped.
+constexpr size_t kMaxRowDepth = lgp::JsonLimits{}.max_depth;
+
+// A first pass over a CBOR blob that only counts nesting, stopping at the limit before the
+// reader recurses further; the tree is built by a second pass.
+class DepthCheck : public nlohmann::json_sax<json> {
+ public:
+  bool too_deep = false;
+  bool null() override { return true; }
+  bool boolean(bool) override { return true; }
+  bool number_integer(number_integer_t) override { return true; }
+  bool number_unsigned(number_unsigned_t) override { return true; }
+  bool number_float(number_float_t, const string_t&) override { return true; }
+  bool string(string_t&) override { return true; }
+  bool binary(binary_t&) override { return true; }
+  bool start_object(std::size_t) override { return enter(); }
+  bool key(string_t&) override { return true; }
+  bool end_object() override { return leave(); }
+  bool start_array(std::size_t) override { return enter(); }
+  bool end_array() override { return leave(); }
+  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) override {
+    return false;
+  }
+
+ private:
+  bool enter() {
+    too_deep = ++depth_ > kMaxRowDepth;
+    return !too_deep;
+  }
+  bool leave() {
+    --depth_;
+    return true;
+  }
+  size_t depth_ = 0;
+};
+
 Expected<json> fromCbor(const std::vector<uint8_t>& b, const std::string& what) {
   try {
+    DepthCheck depth;
+    const bool ok = json::sax_parse(b, &depth, json::input_format_t::cbor);
+    if (depth.too_deep)
+      return Status::error(what + ": nested deeper than " + std::to_string(kMaxRowDepth) +
+                           " levels");
+    if (!ok) return Status::error(what + ": corrupt CBOR");
     return json::from_cbor(b);
   } catch (const std::exception& e) {
     return Status::error(what + ": corrupt CBOR: " + e.what());
@@ -222,11 +276,9 @@ Expected<json> fromCbor(const std::vector<uint8_t>& b, const std::string& what) 
 }
 
 Expected<json> fromText(const std::string& t, const std::string& what) {
-  try {
-    return json::parse(t);
-  } catch (const std::exception& e) {
-    return Status::error(what + ": corrupt JSON: " + e.what());
-  }
+  auto j = lgp::parseJson(t);
+  if (!j) return Status::error(what + ": corrupt JSON: " + j.error());
+  return j;
 }
 
 constexpr const char* kRunColumns =
@@ -240,8 +292,12 @@ Expected<RunRecord> readRun(const Stmt& st) {
   RunRecord r;
   r.id = st.text(0);
   r.name = st.text(1);
+  if (!isValidRunId(r.id))
+    return Status::error("a run row with a bad id '" + lgp::terminalSafe(r.id.substr(0, 40)) + "'");
   auto status = runStatusFromString(st.text(2));
-  if (!status) return Status::error("run " + r.id + ": bad status '" + st.text(2) + "'");
+  if (!status)
+    return Status::error("run " + r.id + ": bad status '" +
+                         lgp::terminalSafe(st.text(2).substr(0, 40)) + "'");
   r.status = *status;
   auto cfg = fromText(st.text(3), "run " + r.id + " config");
   if (!cfg) return cfg.status();
@@ -601,7 +657,7 @@ Expected<std::optional<RunRecord>> Store::getRun(const std::string& id) {
   return std::optional<RunRecord>(std::move(*r));
 }
 
-Expected<std::vector<RunRecord>> Store::listRuns() {
+Expected<std::vector<RunRecord>> Store::listRuns(std::vector<std::string>* unreadable) {
   LGPD_LEASE(l);
   std::string sql = std::string("SELECT ") + kRunColumns + " FROM runs ORDER BY seq DESC";
   Stmt st(l.db(), sql.c_str());
@@ -610,7 +666,11 @@ Expected<std::vector<RunRecord>> Store::listRuns() {
   int rc;
   while ((rc = st.step()) == SQLITE_ROW) {
     auto r = readRun(st);
-    if (!r) return r.status();
+    if (!r) {
+      spdlog::error("store: a run row is skipped: {}", r.error());
+      if (unreadable) unreadable->push_back(r.error());
+      continue;
+    }
     r->inline_table.reset();  // listings never need the data
     out.push_back(std::move(*r));
   }
@@ -625,7 +685,15 @@ Expected<std::vector<std::string>> idsWithStatus(sqlite3* db, RunStatus s) {
   st.bind(1, toString(s));
   std::vector<std::string> out;
   int rc;
-  while ((rc = st.step()) == SQLITE_ROW) out.push_back(st.text(0));
+  while ((rc = st.step()) == SQLITE_ROW) {
+    // Ids become file names (the run's inline table, its MPI work dir): an edited row's is
+    // never used.
+    if (isValidRunId(st.text(0)))
+      out.push_back(st.text(0));
+    else
+      spdlog::error("store: a run row with a bad id '{}' is skipped",
+                    lgp::terminalSafe(st.text(0).substr(0, 40)));
+  }
   if (rc != SQLITE_DONE) return sqlError(db, "ids");
   return out;
 }

@@ -40,6 +40,11 @@ enum class RunStatus { Queued, Running, Finished, Cancelled, Failed };
 std::string_view toString(RunStatus s);
 std::optional<RunStatus> runStatusFromString(std::string_view s);
 
+// Run ids are 16 lowercase hex digits (JobManager's newRunId): ids never carry path or SQL
+// syntax. The API checks a request's id, the store every id it reads back (a row may have
+// been edited, and ids become file names).
+bool isValidRunId(const std::string& id);
+
 struct RunCounters {
   int generation = 0;
   uint64_t evaluations = 0;
@@ -100,8 +105,10 @@ class Store {
   lgp::Status insertRun(const RunRecord& r);
   // nullopt: no such run.
   lgp::Expected<std::optional<RunRecord>> getRun(const std::string& id);
-  // Newest first.
-  lgp::Expected<std::vector<RunRecord>> listRuns();
+  // Newest first. A row that cannot be read (a bad status, a corrupt or too deeply nested
+  // config) is left out, logged, and its reason added to *unreadable: one bad row must not
+  // hide every other run.
+  lgp::Expected<std::vector<RunRecord>> listRuns(std::vector<std::string>* unreadable = nullptr);
   // Queued runs in submission order.
   lgp::Expected<std::vector<std::string>> queuedRuns();
   // Runs with status running (for resume at startup), in submission order.

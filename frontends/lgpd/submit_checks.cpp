@@ -10,6 +10,7 @@
 #include "lgp/core/csv.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/search/search.hpp"
+#include "lgp/search/semantic_cache.hpp"
 #include "table_source.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/score.hpp"
@@ -196,26 +197,45 @@ std::string gib(uint64_t bytes) {
 
 }  // namespace
 
-uint64_t estimateSearchBytes(const lgp::RunConfig& cfg) {
+Status checkServedByLgpd(const lgp::RunConfig& cfg) {
+  if (cfg.search.exhaustive.max_ops > 0)
+    return Status::error(
+        "/search/exhaustive: lgpd does not run the exhaustive enumeration (no cancel reaches it "
+        "and its certificate would not survive a restart); run it with `lgp run` or lgp.fit, or "
+        "set search.exhaustive.max_ops to 0");
+  return Status::ok();
+}
+
+SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg) {
   const uint64_t programs = 4 * static_cast<uint64_t>(std::max(cfg.search.population, 0)) +
                             static_cast<uint64_t>(std::max(cfg.search.archive.max_size, 0));
-  return programs * programBytes(cfg) +
-         static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
+  SearchBytes b;
+  b.programs = programs * programBytes(cfg);
+  b.islands = static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
+  b.semantic_cache =
+      lgp::SemanticCache::bytesFor(static_cast<size_t>(std::max(cfg.search.semantic_cache, 0)));
+  return b;
 }
 
 lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit) {
-  const uint64_t need = estimateSearchBytes(cfg);
+  const SearchBytes b = estimateSearchBytes(cfg);
+  const uint64_t need = b.total();
   if (need <= limit) return lgp::Status::ok();
-  const uint64_t islands =
-      static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
-  const bool by_islands = islands > need - islands;
-  return lgp::Status::error(
-      std::string(by_islands ? "/search/islands/count" : "/search/population") +
-      ": this run would need about " + gib(need) + " (" + std::to_string(cfg.search.population) +
-      " programs of up to " + std::to_string(cfg.program.max_length) + " opcodes, " +
-      std::to_string(cfg.search.islands.count) + " islands), more than this lgpd allows a run (" +
-      gib(limit) + ", its max_run_memory_mb; by default half the machine's memory): lower " +
-      (by_islands ? "search.islands.count" : "search.population or program.max_length"));
+  const std::string what = "this run would need about " + gib(need) + " (" + gib(b.programs) +
+                           " for " + std::to_string(cfg.search.population) + " programs of up to " +
+                           std::to_string(cfg.program.max_length) + " opcodes, " + gib(b.islands) +
+                           " for " + std::to_string(cfg.search.islands.count) + " islands, " +
+                           gib(b.semantic_cache) + " for a semantic cache of " +
+                           std::to_string(cfg.search.semantic_cache) +
+                           " entries), more than this lgpd allows a run (" + gib(limit) +
+                           ", its max_run_memory_mb; by default half the machine's memory)";
+  if (b.semantic_cache >= b.programs && b.semantic_cache >= b.islands)
+    return lgp::Status::error("/search/semantic_cache: " + what +
+                              ": lower search.semantic_cache (0 turns it off)");
+  if (b.islands > b.programs)
+    return lgp::Status::error("/search/islands/count: " + what + ": lower search.islands.count");
+  return lgp::Status::error("/search/population: " + what +
+                            ": lower search.population or program.max_length");
 }
 
 }  // namespace lgpd

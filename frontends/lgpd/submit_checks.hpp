@@ -47,14 +47,26 @@ lgp::Expected<TableColumns> checkTableAtSubmit(const lgp::RunConfig& cfg);
 // columns only the format and the lengths are checked.
 lgp::Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumns& columns);
 
-// What a search of `cfg` holds in memory, roughly: its programs, each at its longest
-// (program.max_length opcodes, program.constants constants), four per population slot (the
-// population, its offspring and the selection pool with its copies) plus the archive's, and
-// kIslandOverheadBytes per island. The table and the evaluation buffers are not counted.
-uint64_t estimateSearchBytes(const lgp::RunConfig& cfg);
+// What lgpd does not run although `lgp run` does: the exhaustive enumeration
+// (search.exhaustive), whose minutes before the first generation no cancel reaches and whose
+// certificate would not survive a restart. A 400 at submit, a failed run for a run stored by
+// an lgpd that took it.
+lgp::Status checkServedByLgpd(const lgp::RunConfig& cfg);
+
+// What a search of `cfg` holds in memory, roughly, by what sets it: its programs (each at its
+// longest, program.max_length opcodes and program.constants constants; four per population
+// slot, the population, its offspring and the selection pool with its copies, plus the
+// archive's), kIslandOverheadBytes per island, and the semantic cache, which is allocated in
+// full when the search starts. The table and the evaluation buffers are not counted.
+struct SearchBytes {
+  uint64_t programs = 0, islands = 0, semantic_cache = 0;
+  uint64_t total() const { return programs + islands + semantic_cache; }
+};
+SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg);
 inline constexpr uint64_t kIslandOverheadBytes = uint64_t{64} << 10;
-// A 400 naming /search/population (or /search/islands/count when the islands weigh more)
-// when estimateSearchBytes(cfg) exceeds `limit` (the daemon's max_run_memory_mb).
+// A 400 naming the largest share (/search/population, /search/islands/count or
+// /search/semantic_cache) when estimateSearchBytes(cfg) exceeds `limit` (the daemon's
+// max_run_memory_mb).
 lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit);
 
 }  // namespace lgpd

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <initializer_list>
 #include <memory>
 #include <optional>
 #include <string>
@@ -224,15 +225,67 @@ std::string readFront(const std::string& path) {
   return orRaise(lgp::readFrontJson(path)).dump();
 }
 
+// The value at `path` (keys) of a front, or ValueError naming the first missing field (or the
+// last one, when it is not an object or array as `want` says): a front is a file, or a
+// daemon's answer, that may lack anything.
+const nlohmann::json& field(const nlohmann::json& j, std::initializer_list<const char*> path,
+                            bool want_array = false) {
+  const nlohmann::json* v = &j;
+  std::string at;
+  for (const char* key : path) {
+    at += std::string("/") + key;
+    if (!v->is_object() || !v->contains(key)) valueError("front: " + at + ": missing");
+    v = &(*v)[key];
+  }
+  if (want_array ? !v->is_array() : !v->is_object())
+    valueError("front: " + at + ": must be " + (want_array ? "an array" : "an object"));
+  return *v;
+}
+
+std::vector<std::string> names(const nlohmann::json& front, const char* key) {
+  std::vector<std::string> out;
+  const auto& list = field(front, {"table", key}, true);
+  for (size_t i = 0; i < list.size(); ++i) {
+    if (!list[i].is_string())
+      valueError("front: /table/" + std::string(key) + "/" + std::to_string(i) +
+                 ": must be a string");
+    out.push_back(list[i].get<std::string>());
+  }
+  return out;
+}
+
+// The rows per interpreter block of the run the front came from, held to the bounds a run
+// config has (/eval/block_size): the front is a file, and a block of 2^24 rows costs
+// gigabytes to predict one row.
+int frontBlockSize(const nlohmann::json& front) {
+  const auto& eval = field(front, {"config", "eval"});
+  // The run config's own reader says what is wrong, naming the field.
+  auto cfg = lgp::parseRunConfig({{"data", {{"path", "front"}}}, {"eval", eval}}, "");
+  if (!cfg) valueError("front: /config" + cfg.error());
+  return cfg->eval.block_size;
+}
+
 // Member `index` of a front on the rows of X (rows x the front's inputs), [row][output]: the
 // float32 interpreter (what the search scored, and what the emitted float code computes), or
 // the double reference path. Target transforms are inverted, as the emitted code does.
 Matrix predict(const std::string& front_text, size_t index, const Matrix& x, bool dbl) {
   const nlohmann::json front = parseText(front_text, "front");
-  lgp::Program p = orRaise(lgp::memberProgram(front, index));
+  const auto& members = field(front, {"members"}, true);
+  if (index >= members.size())
+    valueError("member: index " + std::to_string(index) + " is past the front's " +
+               std::to_string(members.size()) + " members");
   lgp::Table t;
-  t.input_names = front["table"]["inputs"].get<std::vector<std::string>>();
-  t.output_names = front["table"]["outputs"].get<std::vector<std::string>>();
+  t.input_names = names(front, "inputs");
+  t.output_names = names(front, "outputs");
+  const int block = dbl ? 0 : frontBlockSize(front);
+  const std::string at = "/members/" + std::to_string(index);
+  const auto& member = members[index];
+  for (const char* key : {"program", "outputs"})
+    if (!member.is_object() || !member.contains(key))
+      valueError("front: " + at + "/" + key + ": missing");
+  if (!member["outputs"].is_array()) valueError("front: " + at + "/outputs: must be an array");
+  const auto& outs = member["outputs"];
+  lgp::Program p = orRaise(lgp::memberProgram(front, index));
   t.inputs = columns(x, "X", t.input_names.size());
   const size_t rows = x.shape(0);
   for (size_t i = 0; i < t.inputs.size(); ++i)
@@ -241,9 +294,16 @@ Matrix predict(const std::string& front_text, size_t index, const Matrix& x, boo
         valueError("X: row " + std::to_string(r) + ", column " + std::to_string(i) + " (" +
                    t.input_names[i] + ") is not a finite number");
   std::vector<lgp::TargetTransform> tr(t.output_names.size(), lgp::TargetTransform::None);
-  const auto& outs = front["members"][index]["outputs"];
-  for (size_t o = 0; o < tr.size() && o < outs.size(); ++o)
-    if (auto f = lgp::targetTransformFromString(outs[o].value("transform", "none"))) tr[o] = *f;
+  for (size_t o = 0; o < tr.size() && o < outs.size(); ++o) {
+    if (!outs[o].is_object() || !outs[o].contains("transform")) continue;
+    const auto& name = outs[o]["transform"];
+    const auto f =
+        name.is_string() ? lgp::targetTransformFromString(name.get<std::string>()) : std::nullopt;
+    if (!f)
+      valueError("front: " + at + "/outputs/" + std::to_string(o) +
+                 "/transform: not a target transform");
+    tr[o] = *f;
+  }
   std::vector<std::vector<double>> cols(t.output_names.size(), std::vector<double>(rows));
   if (rows == 0) return toMatrix(cols, 0);
   {
@@ -252,7 +312,6 @@ Matrix predict(const std::string& front_text, size_t index, const Matrix& x, boo
     if (dbl) {
       cols = lgp::evaluateReference(p, t);
     } else {
-      const int block = front["config"]["eval"].value("block_size", 256);
       lgp::Dataset ds(t, block);
       lgp::Interpreter interp(block);
       const auto f = interp.evaluate(p, ds);

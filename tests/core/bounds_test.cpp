@@ -7,6 +7,9 @@
 #include <cmath>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "lgp/core/program.hpp"
 #include "lgp/core/rng.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
@@ -115,6 +118,21 @@ TEST(Bounds, InterpreterReusedAcrossSizes) {
     const auto d = evaluateReference(p, t);
     for (size_t r = 0; r < t.rows(); ++r) ASSERT_NEAR(f[0][r], d[0][r], 1e-4);
   }
+}
+
+// A program past the 255-opcode bound is refused naming the bound (hardening round 3): the
+// decoder took max_length from the program itself and said "program has 300 opcodes,
+// max_length is 300".
+TEST(Bounds, AProgramOver255OpcodesIsRefusedNamingTheBound) {
+  nlohmann::json code = nlohmann::json::array({{"add", "x0", "x0"}});
+  for (int i = 1; i < 300; ++i) code.push_back({"mul", "r" + std::to_string((i - 1) % 255), "x0"});
+  ProgramShape shape;
+  shape.num_inputs = 1;
+  shape.max_length = kMax;
+  shape.num_constants = 0;
+  auto p = programFromJson({{"code", code}, {"constants", nlohmann::json::array()}}, shape);
+  ASSERT_FALSE(p);
+  EXPECT_EQ(p.error(), "program: program has 300 opcodes, at most 255 are allowed");
 }
 
 }  // namespace

@@ -121,6 +121,35 @@ TEST(Exhaustive, RecoversExp2OfAQuadraticAtFourOperatorsAndNotBefore) {
   EXPECT_TRUE(j["stopped"].is_null());
 }
 
+// The enumeration holds every distinct expression of a size at once; with no bound it ended in
+// a bare std::bad_alloc after 2.1 GB under `ulimit -v 3000000` (hardening round 3, F13). It
+// stops at its memory bound with what it has, and says so.
+TEST(Exhaustive, StopsAtItsMemoryBoundWithTheSizesItCompleted) {
+  const Table t = table(8, [](double x, double y) { return x * y + 0.5 * x; });
+  RunConfig c = config({Op::Add, Op::Sub, Op::Mul, Op::Div, Op::Mad, Op::Exp2, Op::Sqrt}, 8);
+  c.search.exhaustive.seconds = 600;
+  const size_t bound = size_t{24} << 20;
+  auto r = exhaustiveSearch(c, t, bound);
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->stopped, "memory");
+  EXPECT_GE(r->complete_ops, 2);
+  EXPECT_LT(r->complete_ops, 8);
+  ASSERT_EQ(r->best_by_ops.size(), static_cast<size_t>(r->complete_ops) + 1);
+  EXPECT_TRUE(std::isfinite(r->best_by_ops.back().obj.error));
+  const auto j = r->toJson(c, t);
+  EXPECT_EQ(j["stopped"], "memory");
+  // The front table says why the larger sizes are missing.
+  const nlohmann::json front = {{"table", {{"inputs", {"x", "y"}}, {"outputs", {"f"}}}},
+                                {"members", nlohmann::json::array()},
+                                {"exhaustive", j}};
+  EXPECT_NE(formatFrontTable(front).find("stopped by the memory bound after " +
+                                         std::to_string(r->complete_ops) + " ops"),
+            std::string::npos)
+      << formatFrontTable(front);
+  // Without a bound of its own it takes half of what the process may still allocate.
+  EXPECT_GT(exhaustiveMemoryBudget(), size_t{0});
+}
+
 TEST(Exhaustive, TheFrontTableStatesTheCountsPerSize) {
   const Table t = table(8, [](double x, double y) { return x * y; });
   RunConfig c = config({Op::Add, Op::Mul, Op::Neg}, 1);

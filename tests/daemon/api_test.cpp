@@ -238,6 +238,21 @@ TEST_F(ApiTest, BadInputGets4xxAndNeverACrash) {
   EXPECT_EQ(d.get("/api/v1/runs").j()["runs"].size(), 0u);
 }
 
+// lgpd took search.exhaustive, never ran it, and the front had no certificate (hardening round
+// 3, F12): it is refused, naming the field and where to run it.
+TEST_F(ApiTest, ExhaustiveEnumerationIsRefusedNotIgnored) {
+  Daemon& d = *daemon_;
+  json cfg = runConfig(table_, 3);
+  cfg["search"]["exhaustive"] = {{"max_ops", 2}};
+  Reply r;
+  EXPECT_TRUE(d.submit(cfg, &r).empty());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/exhaustive") << r.body;
+  EXPECT_NE(r.body.find("lgp run"), std::string::npos) << r.body;
+  cfg["search"]["exhaustive"]["max_ops"] = 0;  // off: an ordinary run
+  EXPECT_FALSE(d.submit(cfg, &r).empty()) << r.body;
+}
+
 TEST_F(ApiTest, InlineTableAndPage) {
   Daemon& d = *daemon_;
   json table = {{"format", "lgp-table/1"},
@@ -259,18 +274,25 @@ TEST_F(ApiTest, InlineTableAndPage) {
   Reply page = d.get("/");
   EXPECT_EQ(page.status, 200);
   EXPECT_NE(page.body.find("id=\"pareto\""), std::string::npos);
-  // Self-contained: no external script, stylesheet, font, image or fetch. (The only URL
-  // in the page is the SVG namespace, which is an identifier, not a resource.)
-  std::string body = page.body;
-  for (size_t p = 0; (p = body.find("http://www.w3.org/2000/svg", p)) != std::string::npos;)
-    body.erase(p, 26);
-  EXPECT_EQ(body.find("http://"), std::string::npos);
-  EXPECT_EQ(body.find("https://"), std::string::npos);
-  EXPECT_EQ(body.find("//cdn"), std::string::npos);
-  EXPECT_EQ(body.find("<link"), std::string::npos);
-  EXPECT_EQ(body.find("<script src"), std::string::npos);
-  EXPECT_EQ(body.find("@import"), std::string::npos);
-  EXPECT_EQ(body.find("@font-face"), std::string::npos);
+  Reply script = d.get("/app.js");
+  EXPECT_EQ(script.status, 200);
+  // Self-contained: no external script, stylesheet, font, image or fetch; its one script is
+  // lgpd's own /app.js. (The only URL in either is the SVG namespace, which is an
+  // identifier, not a resource.)
+  for (std::string body : {page.body, script.body}) {
+    for (size_t p = 0; (p = body.find("http://www.w3.org/2000/svg", p)) != std::string::npos;)
+      body.erase(p, 26);
+    EXPECT_EQ(body.find("http://"), std::string::npos);
+    EXPECT_EQ(body.find("https://"), std::string::npos);
+    EXPECT_EQ(body.find("//cdn"), std::string::npos);
+    EXPECT_EQ(body.find("<link"), std::string::npos);
+    EXPECT_EQ(body.find("@import"), std::string::npos);
+    EXPECT_EQ(body.find("@font-face"), std::string::npos);
+  }
+  size_t scripts = 0;
+  for (size_t p = 0; (p = page.body.find("<script", p)) != std::string::npos; ++p) ++scripts;
+  EXPECT_EQ(scripts, 1u);
+  EXPECT_NE(page.body.find("<script src=\"/app.js\"></script>"), std::string::npos);
 }
 
 TEST(ApiAuth, NonLoopbackNeedsTokenAndTokenIsEnforced) {

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <regex>
 
+#include "../skip.hpp"
 #include "daemon_harness.hpp"
 
 namespace lgpd_test {
@@ -105,7 +106,8 @@ std::vector<RefMark> refMarks(const std::string& dom) {
 
 TEST(Browser, PageRendersRunsParetoMemberAndHeatmap) {
   const std::string chromium = findChromium();
-  if (chromium.empty()) GTEST_SKIP() << "chromium not installed (scripts/lgp.sh deps installs it)";
+  if (chromium.empty())
+    LGP_SKIP_UNLESS_REQUIRED() << "chromium not installed (scripts/lgp.sh deps installs it)";
 
   TempDir tmp("browser");
   fs::path table = writeGridTable(tmp.path(), 16);

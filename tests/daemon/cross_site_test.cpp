@@ -7,6 +7,7 @@
 #include <poll.h>
 #include <sys/socket.h>
 
+#include <map>
 #include <regex>
 
 #include "daemon_harness.hpp"
@@ -182,6 +183,51 @@ TEST_F(CrossSite, PostsWithoutAJsonTypeGet415) {
   RawReply r =
       send("POST", "/api/v1/runs/" + id_ + "/cancel", {host_, "Content-Type: application/json"});
   EXPECT_EQ(r.status, 200) << r.body;
+}
+
+// A page on another site must not frame the inspection page (and lure clicks onto its
+// buttons), and an injected inline script must not run in it (hardening round 3, F9).
+TEST_F(CrossSite, ThePageCannotBeFramedAndRunsNoInlineScript) {
+  const RawReply page = send("GET", "/", {host_});
+  ASSERT_EQ(page.status, 200);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      page.headers, m, std::regex("\r\nContent-Security-Policy: ([^\r]*)", std::regex::icase)))
+      << page.headers;
+  // The policy's directives, by name.
+  std::map<std::string, std::string> policy;
+  const std::string csp = m[1];
+  for (size_t a = 0; a < csp.size();) {
+    size_t b = std::min(csp.find(';', a), csp.size());
+    std::string d = csp.substr(a, b - a);
+    d.erase(0, d.find_first_not_of(' '));
+    policy[d.substr(0, d.find(' '))] = d;
+    a = b + 1;
+  }
+  EXPECT_EQ(policy["frame-ancestors"], "frame-ancestors 'none'") << csp;
+  EXPECT_EQ(policy["script-src"], "script-src 'self'") << csp;
+  // Every answer, the API's too, refuses to be framed by browsers that predate CSP 2.
+  for (const char* path : {"/", "/app.js", "/api/v1/runs", "/api/v1/health"}) {
+    const RawReply r = send("GET", path, {host_});
+    EXPECT_TRUE(
+        std::regex_search(r.headers, std::regex("\r\nX-Frame-Options: DENY\r?", std::regex::icase)))
+        << path << ":\n"
+        << r.headers;
+  }
+  // The page's script is lgpd's own file, and it asks before it cancels a run (as it does
+  // before a delete): the POST comes after window.confirm in the cancel button's handler.
+  const RawReply js = send("GET", "/app.js", {host_});
+  ASSERT_EQ(js.status, 200);
+  EXPECT_NE(js.headers.find("text/javascript"), std::string::npos) << js.headers;
+  const size_t handler = js.body.find("title: \"cancel: stop and keep the front\"");
+  ASSERT_NE(handler, std::string::npos);
+  const size_t ask = js.body.find("window.confirm(", handler);
+  const size_t post = js.body.find("/cancel\"", handler);
+  ASSERT_NE(ask, std::string::npos);
+  ASSERT_NE(post, std::string::npos);
+  EXPECT_LT(ask, post) << js.body.substr(handler, 600);
+  EXPECT_NE(js.body.substr(ask, post - ask).find("return"), std::string::npos)
+      << js.body.substr(handler, 600);
 }
 
 TEST(CrossSiteConfig, AllowedHostsAndOriginsAreValidated) {

@@ -75,6 +75,24 @@ inline fs::path writeGridTable(const fs::path& dir, int n = 12) {
   return p;
 }
 
+// An lgp-table/1 document whose inputs are `inputs` (f = the first input plus a tenth of the
+// others) on `rows` rows, with its roles, so that a config need not name its columns.
+inline json jsonTable(const std::vector<std::string>& inputs, int rows = 40) {
+  json cols = json::object();
+  std::vector<double> f(rows, 0.0);
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    json col = json::array();
+    for (int r = 0; r < rows; ++r) {
+      const double v = 0.1 + 0.9 * ((r * (i + 3)) % rows) / rows;
+      col.push_back(v);
+      f[r] += i == 0 ? v : 0.1 * v;
+    }
+    cols[inputs[i]] = col;
+  }
+  cols["f"] = f;
+  return {{"format", "lgp-table/1"}, {"inputs", inputs}, {"outputs", {"f"}}, {"columns", cols}};
+}
+
 inline json runConfig(const fs::path& table, int generations, int population = 32,
                       uint64_t seed = 7) {
   return {

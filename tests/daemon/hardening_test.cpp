@@ -15,6 +15,7 @@
 
 #include <regex>
 
+#include "../skip.hpp"
 #include "daemon_harness.hpp"
 
 namespace lgpd_test {
@@ -246,7 +247,7 @@ TEST_F(Hardening, ChunkedBodyOverTheLimitIsCutOff) {
 
 TEST_F(Hardening, ReferencesAreCheckedAtSubmit) {
 #ifndef LGPD_TEST_HAVE_EMIT
-  GTEST_SKIP() << "lgpd without lgp::emit does not parse references";
+  LGP_SKIP_UNLESS_REQUIRED() << "lgpd without lgp::emit does not parse references";
 #endif
   json cfg = runConfig(table_, 5);
   cfg["references"] = {{{"name", "good"}, {"expr", "x*y"}}, {{"name", "bad"}, {"expr", "nope*2"}}};
@@ -363,7 +364,7 @@ TEST_F(Hardening, DataFileErrorsQuoteNothingOfTheFile) {
 
 TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
 #ifndef LGPD_TEST_HAVE_DATASETS
-  GTEST_SKIP() << "lgpd without the datasets library";
+  LGP_SKIP_UNLESS_REQUIRED() << "lgpd without the datasets library";
 #endif
   // A scene that takes long to generate: the POST answers at once (the scene is parsed,
   // not generated), the API keeps answering, and the job does the generation.
@@ -698,7 +699,7 @@ int startAttempts(const fs::path& db_path, const std::string& id) {
 
 TEST(HardeningJobs, RunWhoseStartKillsTheDaemonIsFailedNotRetriedForever) {
 #ifndef LGPD_TEST_HAVE_DATASETS
-  GTEST_SKIP() << "lgpd without the datasets library";
+  LGP_SKIP_UNLESS_REQUIRED() << "lgpd without the datasets library";
 #endif
   // The daemon dies (kill -9, standing in for a crash no handler can catch) while a run is
   // starting (generating its scene), twice. The third start does not start it again: the

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 
+#include "../skip.hpp"
 #include "daemon_harness.hpp"
 
 namespace lgpd_test {
@@ -400,10 +401,12 @@ class MpirunTest : public ::testing::Test {
  protected:
   void SetUp() override {
 #ifndef LGPD_TEST_HAVE_MPI
-    GTEST_SKIP() << "lgp is built without MPI (LGP_WITH_MPI=OFF): it refuses to run under mpirun";
+    LGP_SKIP_UNLESS_REQUIRED()
+        << "lgp is built without MPI (LGP_WITH_MPI=OFF): it refuses to run under mpirun";
 #endif
     mpirun_ = findInPath("mpirun");
-    if (mpirun_.empty()) GTEST_SKIP() << "mpirun not found in PATH (apt install openmpi-bin)";
+    if (mpirun_.empty())
+      LGP_SKIP_UNLESS_REQUIRED() << "mpirun not found in PATH (apt install openmpi-bin)";
     tmp_.emplace("mpirun");
     table_ = writeGridTable(tmp_->path(), 16);
     // The default launcher ("mpirun" from PATH) and the default lgp (found next to lgpd).

@@ -210,6 +210,36 @@ TEST(Bounds, PopulationBeyondTheMemoryBoundGets400) {
   EXPECT_FALSE(id.empty()) << r.body;
 }
 
+// The semantic cache is allocated in full when the search starts (about 136 bytes an entry):
+// 2^26 entries are about 9 GiB, and 2^23 took lgpd from 10 to 1032 MB (hardening round 3,
+// F4). It counts against the bound, and a cache too large is named.
+TEST(Bounds, ASemanticCacheBeyondTheMemoryBoundGets400) {
+  TempDir tmp("cachememory");
+  const fs::path table = writeGridTable(tmp.path());
+  const fs::path dcfg = writeDaemonConfig(tmp.path(), {{"max_run_memory_mb", 256}});
+  Daemon d(tmp.path() / "state");
+  ASSERT_TRUE(d.start({"--config", dcfg.string()}));
+  for (int entries : {1 << 26, 1 << 23}) {
+    json cfg = runConfig(table, 1, 64);
+    cfg["search"]["semantic_cache"] = entries;
+    Reply r;
+    EXPECT_TRUE(d.submit(cfg, &r).empty()) << entries;
+    EXPECT_EQ(r.status, 400) << r.body;
+    EXPECT_EQ(r.j().value("field", ""), "/search/semantic_cache") << r.body;
+    EXPECT_NE(r.body.find("semantic cache of " + std::to_string(entries) + " entries"),
+              std::string::npos)
+        << r.body;
+  }
+  // One that fits (2^20 entries, about 136 MiB), and the cache off, are taken.
+  for (int entries : {1 << 20, 0}) {
+    json cfg = runConfig(table, 1, 64);
+    cfg["search"]["semantic_cache"] = entries;
+    Reply r;
+    EXPECT_FALSE(d.submit(cfg, &r).empty()) << entries << ": " << r.body;
+  }
+  EXPECT_EQ(d.stop(), 0) << d.log();
+}
+
 // A run whose threads cannot be started (here: a limit of no extra thread, as a machine at
 // its thread limit) fails with the reason; the daemon goes on and runs the next one.
 TEST(Bounds, ThreadCreationFailureFailsTheRunNotTheDaemon) {

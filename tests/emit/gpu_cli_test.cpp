@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "../shell.hpp"
+#include "../skip.hpp"
 #include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/vulkan_run.hpp"
 
@@ -23,7 +24,7 @@ class GpuCli : public ::testing::Test {
   fs::path dir = fs::temp_directory_path() / ("lgp_gpu_cli_" + std::to_string(getpid()));
   void SetUp() override {
     const auto st = lgp::emit::isaBackendStatus();
-    if (!st.available) GTEST_SKIP() << "no ISA measurement here: " << st.detail;
+    if (!st.available) LGP_SKIP_UNLESS_REQUIRED() << "no ISA measurement here: " << st.detail;
     fs::create_directories(dir);
     std::ofstream csv(dir / "t.csv");
     csv << "mu,r,B\n";
@@ -80,7 +81,7 @@ TEST_F(GpuCli, RunFrontScoreAndEmitShowMeasuredCost) {
 
 TEST_F(GpuCli, EmitVerifyVulkanRunsTheMember) {
   const auto st = lgp::emit::vulkanRunStatus();
-  if (!st.available) GTEST_SKIP() << "no Vulkan driver to run shaders: " << st.detail;
+  if (!st.available) LGP_SKIP_UNLESS_REQUIRED() << "no Vulkan driver to run shaders: " << st.detail;
   ASSERT_EQ(sh(lgp() + " run " + (dir / "c.json").string() + " -q").code, 0);
   auto r = sh(lgp() + " emit " + (dir / "front.json").string() + " --verify vulkan -o " +
               (dir / "m.hlsl").string());

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "../skip.hpp"
 #include "lgp/core/formula.hpp"
 #include "lgp/emit/compute_shader.hpp"
 #include "lgp/emit/cost_calibration.hpp"
@@ -14,10 +15,10 @@
 namespace lgp::emit {
 namespace {
 
-#define LGP_REQUIRE_ISA()                                                        \
-  do {                                                                           \
-    const auto st = isaBackendStatus();                                          \
-    if (!st.available) GTEST_SKIP() << "no ISA measurement here: " << st.detail; \
+#define LGP_REQUIRE_ISA()                                                                      \
+  do {                                                                                         \
+    const auto st = isaBackendStatus();                                                        \
+    if (!st.available) LGP_SKIP_UNLESS_REQUIRED() << "no ISA measurement here: " << st.detail; \
   } while (0)
 
 const std::vector<std::string> kIn = {"mu", "r"};

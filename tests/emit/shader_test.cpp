@@ -5,6 +5,7 @@
 // compiled to SPIR-V. Skipped, with a message, only if the tool is missing.
 #include <gtest/gtest.h>
 
+#include "../skip.hpp"
 #include "emit_test_util.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/emit/parser.hpp"
@@ -66,8 +67,8 @@ std::string callExpr(const Variant& v, const std::string& fn, size_t k, size_t i
 TEST(EmitShaders, HlslAndGlslValidateWithGlslang) {
   const std::string tool = validatorPath();
   if (tool.empty())
-    GTEST_SKIP() << "glslangValidator not found: install Debian glslang-tools "
-                    "(scripts/lgp.sh deps) to validate the emitted HLSL/GLSL";
+    LGP_SKIP_UNLESS_REQUIRED() << "glslangValidator not found: install Debian glslang-tools "
+                                  "(scripts/lgp.sh deps) to validate the emitted HLSL/GLSL";
   const auto progs = programs();
   const Table dfg = test::loadDfg();
   std::vector<Program> published;

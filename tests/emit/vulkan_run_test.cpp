@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <regex>
 
+#include "../skip.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/emit/vulkan_run.hpp"
 #include "lgp/io/result.hpp"
@@ -13,10 +14,11 @@
 namespace lgp::emit {
 namespace {
 
-#define LGP_REQUIRE_LAVAPIPE()                                                           \
-  do {                                                                                   \
-    const auto st = vulkanRunStatus();                                                   \
-    if (!st.available) GTEST_SKIP() << "no Vulkan driver to run shaders: " << st.detail; \
+#define LGP_REQUIRE_LAVAPIPE()                                                        \
+  do {                                                                                \
+    const auto st = vulkanRunStatus();                                                \
+    if (!st.available)                                                                \
+      LGP_SKIP_UNLESS_REQUIRED() << "no Vulkan driver to run shaders: " << st.detail; \
   } while (0)
 
 // The stated bounds (emit/README.md): in ulps of the output's largest |value| over the table,

@@ -19,11 +19,13 @@
 #include <random>
 
 #include "../daemon/daemon_harness.hpp"
+#include "../daemon/store_rows.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
 #include "lgp/datasets/scene.hpp"
 #include "lgp/emit/parser.hpp"
+#include "lgp/search/exhaustive.hpp"
 
 namespace {
 
@@ -853,6 +855,176 @@ TEST_F(FuzzDaemon, CutShortRequestsAreDroppedAtOnce) {
     EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(3)) << cut;
   }
   EXPECT_EQ(daemon_->get("/api/v1/runs").status, 200);
+}
+
+// --- Hardening round 3: each finding's input, replayed with the outcome it must have. -------
+// (F6, F7, F10 and lgp.fit(seconds=inf) are the Python package's: tests/python.)
+
+// `lgp` with `args` (no shell): exit code, stdout and stderr together.
+int cli(const std::vector<std::string>& args, const fs::path& scratch, std::string* out) {
+  std::vector<std::string> argv = {LGP_CLI_BIN};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const fs::path log = scratch / "cli-err.log";
+  std::error_code ec;
+  fs::remove(log, ec);
+  const int code = runProgram(argv, out, log, 300);
+  std::ifstream err(log);
+  *out += std::string(std::istreambuf_iterator<char>(err), {});
+  return code;
+}
+
+std::vector<std::string> inputNames(int n) {
+  std::vector<std::string> v;
+  for (int i = 0; i < n; ++i) v.push_back("x" + std::to_string(i));
+  return v;
+}
+
+TEST_F(Fuzz, RoundThreeCliRegressions) {
+  const fs::path d = dir_->path();
+  std::string out;
+  // F1: a 66-term formula and a 100-input table ran past the interpreter's operand table
+  // (SIGABRT, SIGSEGV).
+  std::string expr = "B = mu*1.5";
+  for (int k = 1; k < 66; ++k) expr += (k % 2 ? " + r*" : " + mu*") + std::to_string(k) + ".25";
+  EXPECT_EQ(cli({"score", (fs::path(LGP_SOURCE_DIR) / "examples/quickstart.csv").string(),
+                 "--inputs", "mu,r", "--outputs", "B", "--no-measure", "--expr", expr},
+                d, &out),
+            0)
+      << out;
+  std::ofstream(d / "wide.json") << jsonTable(inputNames(100), 64).dump();
+  nlohmann::json wide = {
+      {"data", {{"path", (d / "wide.json").string()}}},
+      {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}},
+      {"output", {{"front_json", (d / "wide-front.json").string()}, {"front_csv", ""}}}};
+  EXPECT_EQ(cli({"run", file("wide-run.json", wide.dump()).string(), "-q"}, d, &out), 0) << out;
+  // F2: a checkpoint with an island emptied (SIGSEGV on --resume: bred from an empty island).
+  nlohmann::json run = seedConfig(table_);
+  run["search"]["generations"] = 3;
+  run["search"]["population"] = 16;
+  run["output"] = {{"front_json", (d / "front.json").string()}, {"front_csv", ""}};
+  const fs::path cfg = file("run.json", run.dump());
+  const std::string ck = (d / "ck.json").string();
+  ASSERT_EQ(cli({"run", cfg.string(), "-q", "--checkpoint", ck}, d, &out), 0) << out;
+  std::ifstream ck_in(ck);
+  nlohmann::json state = nlohmann::json::parse(ck_in);
+  for (const char* key : {"population", "rank", "crowd"})
+    state["islands"][0][key] = nlohmann::json::array();
+  std::ofstream(ck) << state.dump();
+  EXPECT_EQ(cli({"run", cfg.string(), "-q", "--checkpoint", ck, "--resume", "--generations", "6"},
+                d, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("checkpoint: island 0 holds 0 programs"), std::string::npos) << out;
+  // F5: a front whose texts are escape sequences (title, OSC 52), printed raw.
+  std::ifstream front_in(d / "front.json");
+  nlohmann::json front = nlohmann::json::parse(front_in);
+  front["cost_model"] = "\x1b]0;pwned\x07";
+  front["members"][0]["program"]["code"][0][0] = "\x1b]52;c;cHduZWQ=\x07";
+  const fs::path hostile = file("hostile.json", front.dump());
+  EXPECT_EQ(cli({"front", hostile.string()}, d, &out), 0) << out;
+  EXPECT_EQ(out.find('\x1b'), std::string::npos) << out;
+  EXPECT_EQ(cli({"emit", hostile.string(), "--member", "0", "--no-measure"}, d, &out), 2) << out;
+  EXPECT_EQ(out.find('\x1b'), std::string::npos) << out;
+  // A 300-opcode program: refused naming the bound, not "max_length is 300".
+  nlohmann::json code = nlohmann::json::array({{"add", "x0", "x1"}});
+  for (int i = 1; i < 300; ++i) code.push_back({"mul", "r" + std::to_string((i - 1) % 255), "x0"});
+  front = nlohmann::json::parse(std::ifstream(d / "front.json"));
+  front["members"][0]["program"]["code"] = code;
+  EXPECT_EQ(cli({"emit", file("long.json", front.dump()).string(), "--member", "0", "--no-measure"},
+                d, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("program has 300 opcodes, at most 255 are allowed"), std::string::npos) << out;
+}
+
+// F13: the enumeration had no memory bound (a bare std::bad_alloc after 2.1 GB).
+TEST(FuzzRoundThree, ExhaustiveStopsAtItsMemoryBound) {
+  lgp::Table t;
+  t.input_names = {"x", "y"};
+  t.output_names = {"f"};
+  t.inputs.resize(2);
+  t.outputs.resize(1);
+  for (int i = 0; i < 64; ++i) {
+    t.inputs[0].push_back((i % 8) / 8.0);
+    t.inputs[1].push_back((i / 8) / 8.0);
+    t.outputs[0].push_back(t.inputs[0].back() * t.inputs[1].back());
+  }
+  lgp::RunConfig c;
+  c.data.path = "t.csv";
+  c.search.threads = 2;
+  c.search.exhaustive.max_ops = 8;
+  c.search.exhaustive.seconds = 600;
+  c.search.exhaustive.ops = {lgp::Op::Add, lgp::Op::Mul, lgp::Op::Sub, lgp::Op::Div, lgp::Op::Exp2};
+  watchdog().arm("exhaustive memory bound", "", kCaseDeadlineS * 4);
+  auto r = lgp::exhaustiveSearch(c, t, size_t{16} << 20);
+  watchdog().disarm();
+  ASSERT_TRUE(r) << r.error();
+  EXPECT_EQ(r->stopped, "memory");
+}
+
+TEST_F(FuzzDaemon, RoundThreeBodyRegressions) {
+  const nlohmann::json seed = seedConfig(table_);
+  // F4: a semantic cache beyond the run memory bound (1 GiB here): 9 GiB allocated at start.
+  nlohmann::json cache = seed;
+  cache["search"]["semantic_cache"] = 1 << 26;
+  Reply r = daemon_->post("/api/v1/runs", cache.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/semantic_cache") << r.body;
+  // F12: search.exhaustive was accepted and never run.
+  nlohmann::json exhaustive = seed;
+  exhaustive["search"]["exhaustive"] = {{"max_ops", 3}};
+  r = daemon_->post("/api/v1/runs", exhaustive.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/exhaustive") << r.body;
+  // F1: an inline table of 100 inputs and a 131-operation reference: 201, then lgpd died when
+  // the job started. Now they run to the end.
+  nlohmann::json wide = {{"data", {{"table", jsonTable(inputNames(100), 32)}}},
+                         {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  nlohmann::json long_ref = seed;
+  std::string expr = "f = x";
+  for (int k = 0; k < 65; ++k) expr += " + y*" + std::to_string(k + 2);
+  long_ref["references"] = {{{"name", "long"}, {"expr", expr}}};
+  long_ref["search"]["generations"] = 2;
+  for (const auto& body : {wide, long_ref}) {
+    const std::string id = daemon_->submit(body, &r);
+    ASSERT_FALSE(id.empty()) << r.body;
+    EXPECT_EQ(daemon_->waitDone(id, 120).value("status", ""), "finished") << daemon_->log();
+    ASSERT_TRUE(daemon_->alive()) << daemon_->log();
+  }
+}
+
+// F3 and F8: what lgpd reads back from a run's data file and its own store.
+TEST_F(FuzzDaemon, RoundThreeStoredStateRegressions) {
+  const fs::path state = dir_->path() / "lgpd";
+  const fs::path cfg = dir_->path() / "lgpd.json";
+  const fs::path table = dir_->path() / "roles.json";
+  std::ofstream(table) << jsonTable(inputNames(30)).dump();
+  const nlohmann::json body = {
+      {"data", {{"path", table.string()}}},
+      {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  const std::string a = daemon_->submit(body), b = daemon_->submit(body);
+  ASSERT_FALSE(a.empty() || b.empty());
+  ASSERT_EQ(daemon_->waitDone(a).value("status", ""), "finished");
+  ASSERT_EQ(daemon_->waitDone(b).value("status", ""), "finished");
+  daemon_->stop();
+  // F3: the table rewritten with one input (the front's programs read 30).
+  std::ofstream(table) << jsonTable(inputNames(1)).dump();
+  // F8: a front row 100k deep; a status that is no status.
+  ASSERT_TRUE(
+      execSql(state, "UPDATE fronts SET front = ?1 WHERE run_id = ?2", deepCbor(), b, true));
+  ASSERT_TRUE(execSql(state, "UPDATE runs SET status = ?1 WHERE id = ?2", "nope", b));
+  ASSERT_TRUE(daemon_->start({"--config", cfg.string()}));
+  Reply r;
+  for (int i = 0; i < 100; ++i) {
+    r = daemon_->get("/api/v1/runs/" + a + "/front/0/residuals");
+    if (r.status != 503) break;
+    sleepMs(50);
+  }
+  EXPECT_EQ(r.status, 409) << r.body;
+  EXPECT_EQ(daemon_->get("/api/v1/runs/" + b + "/front").status, 500);
+  r = daemon_->get("/api/v1/runs");
+  EXPECT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.j()["runs"].size(), 1u) << r.body;
 }
 
 }  // namespace

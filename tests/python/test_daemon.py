@@ -1,7 +1,9 @@
 """lgp.Daemon against a live lgpd."""
 
 import os
+import socket
 import subprocess
+import threading
 import time
 
 import numpy as np
@@ -62,3 +64,96 @@ def test_refusals_raise_with_the_field(daemon):
     assert e.value.status == 404
     with pytest.raises(ConnectionError):
         lgp.Daemon("http://127.0.0.1:9", timeout=2).health()
+
+
+class _RawServer:
+    """A one-shot HTTP server on loopback that answers every connection with `serve(conn)`:
+    a hostile or broken daemon, byte for byte."""
+
+    def __init__(self, serve):
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(4)
+        self.url = f"http://127.0.0.1:{self.sock.getsockname()[1]}"
+        self._serve = serve
+        self._thread = threading.Thread(target=self._loop, daemon=True)
+        self._thread.start()
+
+    def _loop(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            with conn:
+                conn.recv(65536)
+                try:
+                    self._serve(conn)
+                except OSError:
+                    pass  # the client hung up, as it should
+
+    def close(self):
+        self.sock.close()
+
+
+def _trickle(conn):
+    # Headers, then one byte of a 1000-byte body every 0.1 s, for at most 30 s.
+    conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Type: application/json\r\n"
+                 b"Content-Length: 1000\r\n\r\n")
+    for _ in range(300):
+        conn.sendall(b" ")
+        time.sleep(0.1)
+
+
+def _huge(status):
+    def serve(conn):
+        size = 400 << 20
+        conn.sendall(f"HTTP/1.1 {status}\r\nContent-Type: application/json\r\n"
+                     f"Content-Length: {size}\r\n\r\n".encode())
+        chunk = b"x" * (1 << 20)
+        for _ in range(size >> 20):
+            conn.sendall(chunk)
+    return serve
+
+
+def test_a_trickling_server_cannot_hold_a_call():
+    # Each byte came within the socket timeout, so the call went on for the whole body and
+    # ended in a raw IncompleteRead (hardening round 3, F10). The timeout is the whole call's.
+    server = _RawServer(_trickle)
+    try:
+        with pytest.raises(ConnectionError, match="no complete answer within 1 s"):
+            lgp.Daemon(server.url, timeout=1).health()
+    finally:
+        server.close()
+
+
+def test_a_huge_answer_is_refused_not_buffered():
+    server = _RawServer(_huge("200 OK"))
+    try:
+        with pytest.raises(ConnectionError, match=r"more than max_response_bytes \(1048576\)"):
+            lgp.Daemon(server.url, timeout=30, max_response_bytes=1 << 20).runs()
+    finally:
+        server.close()
+
+
+def test_a_huge_error_body_is_cut_short():
+    # A 400 MiB error body was read whole and copied into the exception.
+    server = _RawServer(_huge("500 Internal Server Error"))
+    try:
+        with pytest.raises(lgp.DaemonError) as e:
+            lgp.Daemon(server.url, timeout=30).runs()
+        assert e.value.status == 500
+        assert len(str(e.value)) < 4096
+    finally:
+        server.close()
+
+
+def test_a_body_cut_short_is_a_connection_error():
+    def short(conn):
+        conn.sendall(b"HTTP/1.1 200 OK\r\nContent-Length: 100\r\n\r\n{\"runs\": [")
+    server = _RawServer(short)
+    try:
+        with pytest.raises(ConnectionError, match="ended after 10 of its 100 bytes"):
+            lgp.Daemon(server.url, timeout=10).runs()
+    finally:
+        server.close()

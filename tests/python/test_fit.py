@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -124,6 +125,9 @@ def test_multi_output_and_table_object(grid):
     (dict(program=3), "program"),
     (dict(progress="yes"), "progress"),
     (dict(inputs=["a"]), "inputs"),
+    # JSON has no infinity: named here, not "invalid JSON literal" from the engine.
+    (dict(seconds=float("inf")), "seconds: must be a finite number"),
+    (dict(search={"wall_time_s": float("nan")}), "/search/wall_time_s: must be a finite number"),
 ])
 def test_bad_arguments_name_the_field(grid, kwargs, field):
     X, y = grid
@@ -152,6 +156,45 @@ def test_bad_data_names_the_field(grid):
         front[len(front)]
     with pytest.raises(ValueError, match="max_cost"):
         front.best(max_cost=-1)
+
+
+def _edited(front, edit):
+    """A copy of a front's JSON changed by `edit`, as a Front (a file anyone can write)."""
+    data = json.loads(json.dumps(front.data))
+    edit(data)
+    return lgp.Front(data)
+
+
+def test_predict_holds_a_front_to_the_configs_bounds(grid):
+    # eval.block_size comes from the front: 2^24 cost 800 MiB to predict one row; it gets the
+    # bounds a run config has, naming the field.
+    X, y = grid
+    front = lgp.fit(X, y, generations=3, threads=1)
+    for size, why in ((1 << 24, "must be in [16, 16384]"), (24, "must be a multiple of 16"),
+                      ("256", "must be an integer")):
+        bad = _edited(front, lambda d: d["config"]["eval"].update(block_size=size))
+        with pytest.raises(ValueError, match=re.escape(f"front: /config/eval/block_size: {why}")):
+            bad[0].predict(X[:1])
+    ok = _edited(front, lambda d: d["config"]["eval"].update(block_size=16))
+    assert np.array_equal(ok[0].predict(X), front[0].predict(X))
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d.pop("config"), "front: /config: missing"),
+    (lambda d: d["config"].pop("eval"), "front: /config/eval: missing"),
+    (lambda d: d["members"][0].pop("outputs"), "front: /members/0/outputs: missing"),
+    (lambda d: d["members"][0].pop("program"), "front: /members/0/program: missing"),
+    (lambda d: d["members"][0]["outputs"][0].update(transform="cube"),
+     "front: /members/0/outputs/0/transform: not a target transform"),
+    (lambda d: d["table"].pop("outputs"), "front: /table/outputs: missing"),
+    (lambda d: d.pop("table"), "front: /table/inputs: missing"),
+])
+def test_predict_names_a_missing_field(grid, edit, field):
+    # Read through unchecked access before (undefined behaviour; a raw RuntimeError).
+    X, y = grid
+    bad = _edited(lgp.fit(X, y, generations=3, threads=1), edit)
+    with pytest.raises(ValueError, match=re.escape(field)):
+        bad[0].predict(X[:2])
 
 
 def test_same_seed_same_front(grid):

@@ -2,6 +2,7 @@
 
 import copy
 import json
+import math
 import numbers
 import os
 
@@ -82,9 +83,38 @@ def build(config=None, sections=None, *, ops=None, seconds=None, generations=Non
 
 def check(cfg, base_dir):
     """Raises ValueError with the engine's message (naming the JSON path) if ``cfg`` is bad."""
-    why = _lgp.check_config(json.dumps(cfg), base_dir)
+    why = _lgp.check_config(dumps(cfg), base_dir)
     if why:
         raise ValueError(why)
+
+
+def dumps(doc):
+    """``doc`` as JSON text. JSON has no NaN or infinity (the engine reads "Infinity" as an
+    invalid literal): the first non-finite number is a ValueError naming its path."""
+    try:
+        return json.dumps(doc, allow_nan=False)
+    except ValueError:
+        path = _non_finite(doc, "")
+        if path is None:
+            raise
+        where, v = path
+        raise ValueError(f"{where or '/'}: must be a finite number (got {v!r})") from None
+
+
+def _non_finite(v, path):
+    if isinstance(v, float) and not math.isfinite(v):
+        return path, v
+    if isinstance(v, dict):
+        items = ((f"{path}/{k}", x) for k, x in v.items())
+    elif isinstance(v, (list, tuple)):
+        items = ((f"{path}/{i}", x) for i, x in enumerate(v))
+    else:
+        return None
+    for p, x in items:
+        found = _non_finite(x, p)
+        if found is not None:
+            return found
+    return None
 
 
 def _integer(name, v, lo):
@@ -94,6 +124,7 @@ def _integer(name, v, lo):
 
 
 def _number(name, v, lo):
-    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not v >= lo:
-        raise ValueError(f"{name}: must be a number >= {lo} (got {v!r})")
+    if isinstance(v, bool) or not isinstance(v, numbers.Real) or not v >= lo or \
+            not math.isfinite(v):
+        raise ValueError(f"{name}: must be a finite number >= {lo} (got {v!r})")
     return float(v)

@@ -102,7 +102,7 @@ def data(scene, size=32, *, abs_error=None, cache_dir=None, threads=0):
     else:
         raise ValueError(f"scene: expected a dict, a file or a name, got {type(scene).__name__}")
     cache = "" if cache_dir is None else os.fspath(cache_dir)
-    inputs, outputs, X, Y, meta, note = _lgp.generate(json.dumps(doc), cache, int(threads))
+    inputs, outputs, X, Y, meta, note = _lgp.generate(_config.dumps(doc), cache, int(threads))
     if note:
         warnings.warn(note)
     return Table(X, Y, inputs, outputs, json.loads(meta))
@@ -183,7 +183,7 @@ def fit(X=None, y=None, *, inputs=None, outputs=None, ops=None, seconds=None, ge
         raise ValueError(f"progress_interval: must be a number >= 0 (got {progress_interval!r})")
     try:
         text, interrupted, note = _lgp.run(
-            json.dumps(cfg), base_dir, arrays[0] if arrays else None,
+            _config.dumps(cfg), base_dir, arrays[0] if arrays else None,
             arrays[1] if arrays else None, weights, reporter if reporter.active else None,
             float(progress_interval))
     finally:

@@ -155,12 +155,20 @@ class Front:
     @property
     def inputs(self):
         """Input names, in the order of X's columns."""
-        return list(self.data["table"]["inputs"])
+        return self._names("inputs")
 
     @property
     def outputs(self):
         """Output names."""
-        return list(self.data["table"]["outputs"])
+        return self._names("outputs")
+
+    def _names(self, key):
+        # A front is a file (or a daemon's answer): a missing field is a ValueError naming it.
+        table = self.data.get("table")
+        names = table.get(key) if isinstance(table, dict) else None
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise ValueError(f"front: /table/{key}: missing, or not a list of names")
+        return list(names)
 
     @property
     def config(self):

@@ -23,8 +23,9 @@ Status validate(const Program& p, const ProgramShape& shape) {
     return Status::error("program has " + std::to_string(n) + " opcodes, needs at least " +
                          std::to_string(std::max(1, shape.num_outputs)));
   if (n > shape.max_length || n > 255)
-    return Status::error("program has " + std::to_string(n) + " opcodes, max_length is " +
-                         std::to_string(shape.max_length));
+    return Status::error("program has " + std::to_string(n) + " opcodes, " +
+                         (n > 255 ? std::string("at most 255 are allowed")
+                                  : "max_length is " + std::to_string(shape.max_length)));
   if (static_cast<int>(p.constants.size()) != shape.num_constants)
     return Status::error("program has " + std::to_string(p.constants.size()) +
                          " constant slots, expected " + std::to_string(shape.num_constants));

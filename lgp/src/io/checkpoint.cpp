@@ -14,6 +14,17 @@ uint64_t fnv1a(const void* data, size_t n, uint64_t h = 1469598103934665603ull) 
   for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
   return h;
 }
+
+// A member of a checkpoint, held to the run's own shape: programFromJson takes the constant
+// count and the length from the program itself, and a checkpoint is a file anyone can edit (a
+// program without its constants, or longer than max_length, would be evaluated out of bounds).
+Expected<Program> checkpointProgram(const nlohmann::json& member, const ProgramShape& shape) {
+  auto p = programFromJson(member.at("program"), shape);
+  if (!p) return p;
+  if (auto st = validate(*p, shape); !st)
+    return Status::error("program: " + st.message() + " (this run's shape)");
+  return p;
+}
 }  // namespace
 
 nlohmann::json objectivesToJson(const Objectives& o) {
@@ -124,7 +135,7 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
       const auto& ji = jislands.at(static_cast<size_t>(k));
       Search::Island isl;
       for (const auto& j : ji.at("population")) {
-        auto p = programFromJson(j.at("program"), s.shape_);
+        auto p = checkpointProgram(j, s.shape_);
         if (!p) return Status::error("checkpoint: population: " + p.error());
         auto o = objectivesFromJson(j.at("obj"));
         if (!o) return Status::error("checkpoint: population: " + o.error());
@@ -142,14 +153,35 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
     Archive arch(s.cfg_.search.archive);
     auto& members = arch.mutableMembers();
     for (const auto& j : st.at("archive")) {
-      auto p = programFromJson(j.at("program"), s.shape_);
+      auto p = checkpointProgram(j, s.shape_);
       if (!p) return Status::error("checkpoint: archive: " + p.error());
       auto o = objectivesFromJson(j.at("obj"));
       if (!o) return Status::error("checkpoint: archive: " + o.error());
       members.push_back({*p, *o, j.value("refined", false)});
     }
-    if (st.at("initialized").get<bool>() && islands.empty())
-      return Status::error("checkpoint: no islands");
+    if (st.at("initialized").get<bool>()) {
+      if (islands.empty()) return Status::error("checkpoint: no islands");
+      // Every island holds its share of the population, as survival leaves it: an empty or
+      // resized island would be bred from out of bounds.
+      const int total = s.range_set_ ? s.island_total_ : held;
+      const int n = s.cfg_.search.population;
+      if (total < 1 || total > n)
+        return Status::error("checkpoint: " + std::to_string(total) +
+                             " islands for a population of " + std::to_string(n));
+      for (int k = 0; k < take_count; ++k) {
+        const int global = s.range_set_ ? s.island_first_ + k : k;
+        const int want = n / total + (global < n % total ? 1 : 0);
+        const size_t got = islands[static_cast<size_t>(k)].pop.size();
+        if (got != static_cast<size_t>(want))
+          return Status::error("checkpoint: island " + std::to_string(global) + " holds " +
+                               std::to_string(got) + " programs, this run's population gives it " +
+                               std::to_string(want));
+      }
+    }
+    if (static_cast<int>(members.size()) > s.cfg_.search.archive.max_size)
+      return Status::error("checkpoint: the archive holds " + std::to_string(members.size()) +
+                           " members, more than search.archive.max_size (" +
+                           std::to_string(s.cfg_.search.archive.max_size) + ")");
     s.islands_ = std::move(islands);
     if (!s.range_set_) {
       s.island_first_ = 0;
@@ -196,7 +228,7 @@ Expected<nlohmann::json> combineCheckpoints(const RunConfig& cfg, const ProgramS
       for (const auto& isl : part.at("islands")) islands.push_back(isl);
       next_island += static_cast<int>(part.at("islands").size());
       for (const auto& j : part.at("archive")) {
-        auto p = programFromJson(j.at("program"), shape);
+        auto p = checkpointProgram(j, shape);
         if (!p) return Status::error("checkpoint: archive: " + p.error());
         auto o = objectivesFromJson(j.at("obj"));
         if (!o) return Status::error("checkpoint: archive: " + o.error());

@@ -4,6 +4,7 @@
 
 #include "lgp/config/json_reader.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/io/terminal_text.hpp"
 
 #include <unistd.h>
 
@@ -259,10 +260,14 @@ Status writeFrontCsv(const nlohmann::json& front, const std::filesystem::path& p
 }
 
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
-  const std::string f = path.string();
   auto doc = readJsonDocument(path, "lgp-front/1");
   if (!doc) return doc;
-  nlohmann::json& j = *doc;
+  if (auto s = checkFrontJson(*doc, path.string()); !s) return s;
+  return doc;
+}
+
+Status checkFrontJson(const nlohmann::json& j, const std::string& f) {
+  if (!j.is_object()) return Status::error(f + ": must be a JSON object");
   if (!j.contains("members") || !j["members"].is_array())
     return Status::error(f + ": /members: must be an array");
   if (!j.contains("table") || !j["table"].contains("inputs") || !j["table"].contains("outputs"))
@@ -295,7 +300,7 @@ Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path) {
     if (!m.is_object() || !m.contains("program") || !m.contains("outputs") || !m.contains("cost"))
       return Status::error(at + ": needs program, outputs and cost");
   }
-  return doc;
+  return Status::ok();
 }
 
 Expected<Program> memberProgram(const nlohmann::json& front, size_t index) {
@@ -373,7 +378,7 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
   // Measured instructions (emit/gpu_cost.hpp), one figure per measured family: "14/15/14".
   const std::vector<std::string> fams = measuredFamilies(front);
   std::string isa_head;
-  for (const auto& f : fams) isa_head += (isa_head.empty() ? "" : "/") + f;
+  for (const auto& f : fams) isa_head += (isa_head.empty() ? "" : "/") + terminalSafe(f);
   const int isa_w = fams.empty() ? 0 : std::max<int>(8, static_cast<int>(isa_head.size()));
   auto isaCell = [&](const nlohmann::json& m) {
     std::string s;
@@ -401,9 +406,10 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
     if (auto f = memberFormulaStatements(front, i)) {
       st = f->statements;
     } else {
+      // Text from the file, shown as text: no escape sequence reaches the terminal.
       for (size_t o = 0; o < m.at("outputs").size(); ++o)
-        st.push_back({m["outputs"][o].value("name", ""), m["outputs"][o].value("expression", ""),
-                      static_cast<int>(o)});
+        st.push_back({terminalSafe(m["outputs"][o].value("name", "")),
+                      terminalSafe(m["outputs"][o].value("expression", "")), static_cast<int>(o)});
     }
     std::string lost = "-";
     if (m.contains("cancellation") && m["cancellation"].is_object()) {
@@ -458,7 +464,7 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
       std::snprintf(buf, sizeof buf, "  <= %d ops: error %s%s  ", b["max_ops"].get<int>(),
                     e.is_number() ? fmt(e.get<double>()).c_str() : "-",
                     b.value("complete", false) ? "" : " (incomplete)");
-      os << buf << formula;
+      os << buf << terminalSafe(formula);
       // How many expressions of exactly that size were distinct, and fitted (older fronts
       // record only the first).
       const auto n = b.value("enumerated", nlohmann::json()),
@@ -470,12 +476,17 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
       }
       os << "\n";
     }
-    // Why larger sizes were not done (the two reasons the enumerator writes; anything else in
-    // a hand-edited front is not printed).
+    // Why larger sizes were not done (the reasons the enumerator writes; anything else in a
+    // hand-edited front is not printed).
     const auto stopped = it->value("stopped", nlohmann::json());
-    if (stopped == "seconds" || stopped == "expression cap")
-      os << "  stopped by the " << (stopped == "seconds" ? "time budget" : "expression cap")
-         << " after " << it->value("complete_ops", nlohmann::json(-1)).dump() << " ops\n";
+    const auto complete = it->value("complete_ops", nlohmann::json(-1));
+    if ((stopped == "seconds" || stopped == "expression cap" || stopped == "memory") &&
+        complete.is_number_integer())
+      os << "  stopped by the "
+         << (stopped == "seconds"          ? "time budget"
+             : stopped == "expression cap" ? "expression cap"
+                                           : "memory bound")
+         << " after " << complete.dump() << " ops\n";
   }
   return os.str();
 }

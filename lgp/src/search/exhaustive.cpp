@@ -1,14 +1,18 @@
 #include "lgp/search/exhaustive.hpp"
 
 #include <omp.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <memory>
+#include <new>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -41,6 +45,11 @@ constexpr int kDraws = 2;
 // Candidates whose probe values are computed together (in parallel) before they are inserted
 // in order, so that the result does not depend on the thread count.
 constexpr size_t kBatch = 8192;
+// Memory accounting (Enumerator::fits): a fingerprint in a hash set is a heap node (the key,
+// the next pointer, the cached hash, the allocator's header); a tree to fit costs the
+// screening its error and its place in the ranking.
+constexpr size_t kSetNodeBytes = 48;
+constexpr size_t kScreenBytesPerFit = sizeof(double) + sizeof(size_t);
 
 // 128-bit fingerprint of an expression's values at the probe points.
 struct Key {
@@ -130,11 +139,13 @@ bool commutative(Op op) {
 // draw (f and a f + b: the same error after scaling) are kept as operands but not fitted again.
 class Enumerator {
  public:
-  Enumerator(const Table& t, std::vector<Op> ops, int max_constants, bool affine_roots, int threads)
+  Enumerator(const Table& t, std::vector<Op> ops, int max_constants, bool affine_roots, int threads,
+             size_t memory_bytes)
       : ops_(std::move(ops)),
         max_constants_(max_constants),
         affine_roots_(affine_roots),
-        threads_(threads) {
+        threads_(threads),
+        memory_bytes_(memory_bytes) {
     const int inputs = static_cast<int>(t.numInputs());
     const auto domain = tableDomain(t);
     // Probe points: corners, rows spread over the table, random points of the box.
@@ -189,7 +200,7 @@ class Enumerator {
   }
 
   // Builds every distinct tree with `s` operators; false when the level would exceed the cap
-  // or the deadline passed first.
+  // or the memory bound, or the deadline passed first.
   // `operand`: the trees may become operands of larger ones (their values are kept).
   bool grow(int s, bool operand, std::chrono::steady_clock::time_point deadline) {
     std::vector<int> level;
@@ -215,6 +226,11 @@ class Enumerator {
         if (level.size() >= (operand ? kMaxPerOperandLevel : kMaxPerLastLevel)) {
           capped = true;
           size_capped_ = true;
+          break;
+        }
+        if (!fits(operand, level, fit)) {
+          capped = true;
+          memory_capped_ = true;
           break;
         }
         level.push_back(add(batch[i], operand ? v : nullptr));
@@ -294,6 +310,10 @@ class Enumerator {
   bool sizeCapped() const {
     return size_capped_;
   }
+  // The last grow() stopped at the memory bound.
+  bool memoryCapped() const {
+    return memory_capped_;
+  }
 
   const std::vector<int>& level(int s) const {
     return levels_[s];
@@ -343,6 +363,34 @@ class Enumerator {
   }
   static bool past(std::chrono::steady_clock::time_point t) {
     return std::chrono::steady_clock::now() > t;
+  }
+  // Whether one more tree in `level` (and `fit`) keeps the enumeration within its memory
+  // bound: what it holds (the nodes, the operand values, both fingerprint sets, the levels'
+  // lists and what screening them will take), plus the largest block that insertion may
+  // allocate while the one it replaces still lives (a vector's capacity and a hash set's
+  // buckets double), plus a batch's values.
+  bool fits(bool operand, const std::vector<int>& level, const std::vector<int>& fit) const {
+    size_t held = nodes_.capacity() * sizeof(Node) + vals_.capacity() * sizeof(double) +
+                  (exact_.size() + roots_.size()) * kSetNodeBytes +
+                  (exact_.bucket_count() + roots_.bucket_count()) * sizeof(void*) +
+                  (level.capacity() + fit.capacity()) * sizeof(int) +
+                  fit.size() * kScreenBytesPerFit + kBatch * (width_ * sizeof(double) + 16);
+    for (const auto* lists : {&levels_, &fit_})
+      for (const auto& l : *lists) held += l.capacity() * sizeof(int);
+    const auto doubled = [](size_t size, size_t capacity, size_t bytes) {
+      return size + 1 > capacity ? std::max<size_t>(2 * capacity, 1) * bytes : 0;
+    };
+    size_t growth = std::max({doubled(nodes_.size(), nodes_.capacity(), sizeof(Node)),
+                              doubled(level.size(), level.capacity(), sizeof(int)),
+                              doubled(fit.size(), fit.capacity(), sizeof(int))});
+    if (operand && vals_.size() + width_ > vals_.capacity())
+      growth =
+          std::max(growth, std::max(2 * vals_.capacity(), vals_.size() + width_) * sizeof(double));
+    for (const auto* set : {&exact_, &roots_})
+      if (static_cast<double>(set->size() + 1) >
+          static_cast<double>(set->bucket_count()) * set->max_load_factor())
+        growth = std::max(growth, 2 * set->bucket_count() * sizeof(void*));
+    return held + growth <= memory_bytes_;
   }
   // The values of tree `n` with its first free constant in slot `offset`; with `fragile`,
   // also whether the tree is fragile (a fragile operand, or a kink of its operator whose place
@@ -437,12 +485,14 @@ class Enumerator {
   int max_constants_;
   bool affine_roots_;
   int threads_;
+  size_t memory_bytes_;
   int points_ = 0, width_ = 0;
   std::vector<double> cvals_;  // [draw][slot]
   std::vector<Node> nodes_;
   std::vector<double> vals_;  // [node][draw][point]
   std::vector<std::vector<int>> levels_, fit_;
   bool size_capped_ = false;
+  bool memory_capped_ = false;
   std::unordered_set<Key, KeyHash> exact_, roots_;
 };
 
@@ -549,7 +599,34 @@ nlohmann::json ExhaustiveResult::toJson(const RunConfig& cfg, const Table& t) co
           {"best", best}};
 }
 
-Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t) {
+size_t exhaustiveMemoryBudget() {
+  const size_t page = static_cast<size_t>(std::max(1L, ::sysconf(_SC_PAGESIZE)));
+  size_t avail = static_cast<size_t>(std::max(0L, ::sysconf(_SC_PHYS_PAGES))) * page;
+  std::ifstream meminfo("/proc/meminfo");
+  for (std::string key; meminfo >> key;) {
+    size_t kib = 0;
+    if (key == "MemAvailable:" && meminfo >> kib) {
+      avail = kib << 10;
+      break;
+    }
+    meminfo.ignore(1 << 10, '\n');
+  }
+  // Under a limit, what is left of it: the address space counts every mapping (thread stacks,
+  // malloc arenas), and this process has some already.
+  size_t vm = 0;
+  std::ifstream("/proc/self/statm") >> vm;
+  vm *= page;
+  for (int which : {RLIMIT_AS, RLIMIT_DATA}) {
+    rlimit rl{};
+    if (::getrlimit(which, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+      avail = std::min<size_t>(avail, rl.rlim_cur > vm ? rl.rlim_cur - vm : 0);
+  }
+  return avail / 2;
+}
+
+Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t,
+                                            size_t memory_bytes) {
+  if (memory_bytes == 0) memory_bytes = exhaustiveMemoryBudget();
   const auto& x = cfg.search.exhaustive;
   if (x.max_ops <= 0) return Status::error("/search/exhaustive/max_ops: enumeration is off");
   if (t.numOutputs() != 1)
@@ -585,10 +662,18 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
   ExhaustiveMember none;
   res.best_by_ops.push_back(none);
   std::vector<ExhaustiveMember> all;
-  Enumerator en(t, ops, x.constants, err.linear_scaling, threads);
+  Enumerator en(t, ops, x.constants, err.linear_scaling, threads, memory_bytes);
   for (int s = 1; s <= x.max_ops; ++s) {
-    if (seconds() > x.seconds || !en.grow(s, s < x.max_ops, deadline)) {
-      res.stopped = en.sizeCapped() ? "expression cap" : "seconds";
+    bool grown = false;
+    try {
+      grown = seconds() <= x.seconds && en.grow(s, s < x.max_ops, deadline);
+    } catch (const std::bad_alloc&) {
+      // The bound is an estimate; the machine had less (another process took it meanwhile).
+      res.stopped = "memory";
+      break;
+    }
+    if (!grown) {
+      res.stopped = en.memoryCapped() ? "memory" : en.sizeCapped() ? "expression cap" : "seconds";
       break;
     }
     const std::vector<int>& level = en.toFit(s);

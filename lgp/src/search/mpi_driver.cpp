@@ -96,9 +96,10 @@ class Comm {
     MPI_Isend(p.bytes.data(), static_cast<int>(p.bytes.size()), MPI_BYTE, dst, tag, comm_,
               &p.request);
     ++sent_[dst];
-    bytes_sent_ += p.bytes.size();
-    reapNow();
-    return p.bytes.size();
+    const size_t bytes = p.bytes.size();
+    bytes_sent_ += bytes;
+    reapNow();  // may free p, this very send's buffer, if MPI has completed it already
+    return bytes;
   }
 
   // The next message with this tag from any rank, if one has arrived.

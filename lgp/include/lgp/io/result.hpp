@@ -59,6 +59,9 @@ nlohmann::json progressToJson(const SearchProgress& p);
 
 // Reads and checks a front.json; the error names the file and the bad field.
 Expected<nlohmann::json> readFrontJson(const std::filesystem::path& path);
+// The checks of readFrontJson on a front from elsewhere (a daemon's answer): members with a
+// program, outputs and cost, table names without control characters. `origin` starts errors.
+Status checkFrontJson(const nlohmann::json& front, const std::string& origin);
 // A member's program, decoded against the shape recorded in the front.
 Expected<Program> memberProgram(const nlohmann::json& front, size_t index);
 // The same for any entry with a "program" (a member, or a scored reference of "references").

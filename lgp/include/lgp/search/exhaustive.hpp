@@ -55,8 +55,9 @@ struct ExhaustiveResult {
   std::vector<double> level_seconds;  // [k]: seconds from the start until size k was done
   uint64_t fitted = 0;                // constant fits on every row
   int complete_ops = -1;              // every expression of <= this many operators was fitted
-  // Why the sizes above complete_ops were not done: "seconds" (the budget) or "expression
-  // cap" (more distinct expressions of one size than the enumerator keeps); empty if all were.
+  // Why the sizes above complete_ops were not done: "seconds" (the budget), "expression
+  // cap" (more distinct expressions of one size than the enumerator keeps) or "memory" (the
+  // next size would not fit the memory bound); empty if all were.
   std::string stopped;
   double seconds = 0;
   // The certificate for the front JSON ("exhaustive"): grammar, counts, best per k.
@@ -64,6 +65,13 @@ struct ExhaustiveResult {
 };
 
 // Runs the enumeration of cfg.search.exhaustive on `t` (one output). Errors name the field.
-Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t);
+// `memory_bytes`: what the enumeration may hold (its expressions, their probe values and
+// fingerprints, the screening's lists); a size that would need more stops it with "memory".
+// 0: exhaustiveMemoryBudget().
+Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t,
+                                            size_t memory_bytes = 0);
+// Half of what this process may still allocate: the machine's available memory, and under an
+// address-space or data limit (ulimit -v, ulimit -d) what is left of it.
+size_t exhaustiveMemoryBudget();
 
 }  // namespace lgp

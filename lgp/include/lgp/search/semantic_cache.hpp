@@ -20,6 +20,8 @@
 #pragma once
 
 #include <array>
+#include <bit>
+#include <cstddef>
 #include <cstdint>
 #include <mutex>
 #include <vector>
@@ -61,6 +63,10 @@ class SemanticCache {
 
   // `entries` is rounded up to a power of two; 0 disables the cache.
   explicit SemanticCache(size_t entries = 0);
+  // What the constructor allocates for `entries`, at once (lgpd's memory bound counts it).
+  static size_t bytesFor(size_t entries) {
+    return entries ? std::bit_ceil(entries) * sizeof(Slot) : 0;
+  }
   bool enabled() const { return !slots_.empty(); }
   size_t capacity() const { return slots_.size(); }
 
