@@ -38,8 +38,9 @@ OPERON_SYMBOLS = "add,sub,mul,div,exp,log,sqrt,pow,square,fmin,fmax,abs"
 KS = (8, 10, 12, 15, 20, 25, 30, 40, 50, 64)
 FAMILY = "rdna2"  # the measured cost the tables are in
 # The translation check: lgp's double-precision RMS of a translated Operon model on the training
-# rows against Operon's own (float32) training RMS.
-CHECK_REL, CHECK_ABS = 1e-3, 1e-7
+# rows against Operon's own (float32) training RMS, within CHECK_REL relative plus CHECK_ULPS
+# float32 ulps (2^-23) of the training output's largest |y| (Operon's float32 rounding).
+CHECK_REL, CHECK_ULPS = 1e-3, 1.0
 
 
 def cpu_model():
@@ -197,6 +198,9 @@ def prepare_data(lgp, run, d):
     if "scene" in run:
         with open(run["scene"]) as f:
             scene = json.load(f)
+        if not isinstance(scene, dict) or scene.get("format") != "lgp-scene/1":
+            sys.exit("error: %s: not a scene (format lgp-scene/1); give a scene, or a CSV table "
+                     "(lgp data --csv) with --holdout" % run["scene"])
         full, grid = generate_scene_table(lgp, run["scene"], os.path.join(d, "scene-table.csv"),
                                           commands)
         rows = channel_rows(full, inputs, run["weights"], run["scene"])
@@ -587,9 +591,10 @@ def read_operon_front(path, var_train, var_heldout):
     return members, dropped
 
 
-def check_ok(lgp_double, operon_rms):
+def check_ok(lgp_double, operon_rms, y_scale):
     return (finite(lgp_double) and finite(operon_rms)
-            and abs(lgp_double - operon_rms) <= CHECK_REL * operon_rms + CHECK_ABS)
+            and abs(lgp_double - operon_rms)
+            <= CHECK_REL * operon_rms + CHECK_ULPS * 2.0 ** -23 * y_scale)
 
 
 def score_operon(args, members, inputs, data_dir, d, train_rows, commands):
@@ -616,7 +621,8 @@ def score_operon(args, members, inputs, data_dir, d, train_rows, commands):
         m["train_rms_f32"] = metric(tr, "float32", "rmse")
         m["heldout_rms"] = metric(he, "float32", "rmse")
         m["heldout_max"] = metric(he, "float32", "max_abs")
-        m["check"] = check_ok(m["train_rms_f64"], m["train_rms_operon"])
+        m["check"] = check_ok(m["train_rms_f64"], m["train_rms_operon"],
+                              max(abs(y) for _, y in train_rows))
     for m in members:  # Operon's own semantics in double, independently of lgp
         try:
             m["train_rms_python_f64"] = rms_max(operon_function(m["model"], inputs), train_rows)[0]
@@ -755,7 +761,7 @@ def code_span(text):
 def fmt_ratio(r):
     if r is None:
         return "-"
-    s = "%.2f" % r if r < 10 else "%.1f" % r
+    s = "%.2g" % r if r < 0.1 else "%.2f" % r if r < 10 else "%.1f" % r
     return "**%s**" % s if r > 1 else s
 
 
@@ -835,11 +841,11 @@ def report(meta, data_info, results):
                 for m in o["members"] if m.get("check") and finite(m.get("heldout_rms"))
                 and finite(m.get("heldout_rms_operon")) and m["heldout_rms_operon"] > 0]
         L += ["", "Translation check: %d of %d Operon members' double-precision training RMS "
-              "through lgp is within %g relative (+ %g) of Operon's own; largest relative "
-              "difference %s. On the held-out rows (Operon's test range) lgp's float32 RMS of "
-              "the translated members and Operon's own float32 RMS differ by at most %s "
-              "(relative)." % (ok, n, CHECK_REL, CHECK_ABS, fmt(worst, ".2e"),
-                               fmt(max(held) if held else None, ".2e"))]
+              "through lgp is within %g relative (+ %g float32 ulp of max |y|) of Operon's own; "
+              "largest relative difference %s. On the held-out rows (Operon's test range) lgp's "
+              "float32 RMS of the translated members and Operon's own float32 RMS differ by at "
+              "most %s (relative)." % (ok, n, CHECK_REL, CHECK_ULPS, fmt(worst, ".2e"),
+                                       fmt(max(held) if held else None, ".2e"))]
         bad = [m for m in o["members"] if not m.get("check")]
         for m in bad:
             L.append("- failed: length %d, Operon RMS %s, lgp double RMS %s, Python double RMS "
@@ -983,7 +989,7 @@ def main():
             "budget": args.budget, "seeds": args.seed_list,
             "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "lgp_config_json": args.config_patch, "ks": list(KS), "family": FAMILY,
-            "check_tolerance": {"rel": CHECK_REL, "abs": CHECK_ABS},
+            "check_tolerance": {"rel": CHECK_REL, "float32_ulps_of_max_abs_y": CHECK_ULPS},
             "command": shlex.join([sys.executable] + sys.argv)}
     print("CPU: %s; load average %s" % (meta["cpu"], meta["loadavg"]), flush=True)
     data_info, results = {}, []

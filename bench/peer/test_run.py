@@ -218,9 +218,10 @@ class Tables(unittest.TestCase):
         self.assertIsNone(run.ratio(None, 0.25))
 
     def test_check(self):
-        self.assertTrue(run.check_ok(1.0005e-3, 1e-3))
-        self.assertFalse(run.check_ok(1.002e-3, 1e-3))
-        self.assertFalse(run.check_ok(math.nan, 1e-3))
+        self.assertTrue(run.check_ok(1.0005e-3, 1e-3, 1.0))
+        self.assertFalse(run.check_ok(1.002e-3, 1e-3, 1.0))
+        self.assertTrue(run.check_ok(1.002e-3, 1e-3, 100.0))  # within an ulp of 100
+        self.assertFalse(run.check_ok(math.nan, 1e-3, 1.0))
 
     def test_operon_front(self):
         with tempfile.TemporaryDirectory() as d:
