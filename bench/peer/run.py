@@ -665,21 +665,28 @@ def score_lgp(args, front_path, inputs, data_dir, d, commands):
                      "search_s": p.get("elapsed_s"), "stop_reason": p.get("stop_reason")}
 
 
-def usable(m, engine):
-    ok = (not m.get("failed") and m.get("isa") is not None and finite(m.get("heldout_rms"))
-          and finite(m.get("heldout_max")))
-    return ok and (engine == "lgp" or m.get("check"))
+def usable(m):
+    """Measured, with finite held-out figures. An Operon member that fails the translation check
+    stays: its figures are those of the translated formula, a shader with that cost and error
+    (the report lists it, and marks a per-k figure that comes from it)."""
+    return (not m.get("failed") and m.get("isa") is not None and finite(m.get("heldout_rms"))
+            and finite(m.get("heldout_max")))
 
 
-def per_k(members, engine):
+def per_k(members):
     """Best held-out RMS and best held-out max |error| (each minimised on its own) over the
-    usable members of at most k measured instructions, for every k of KS."""
-    ok = [m for m in members if usable(m, engine)]
+    usable members of at most k measured instructions, for every k of KS; *_unchecked: the
+    figure comes from a member that failed the translation check."""
+    ok = [m for m in members if usable(m)]
     out = {}
     for k in KS:
         c = [m for m in ok if m["isa"] <= k]
-        out[str(k)] = {"rms": min((m["heldout_rms"] for m in c), default=None),
-                       "max": min((m["heldout_max"] for m in c), default=None)}
+        row = {}
+        for key, field in (("rms", "heldout_rms"), ("max", "heldout_max")):
+            best = min(c, key=lambda m: m[field], default=None)
+            row[key] = best[field] if best else None
+            row[key + "_unchecked"] = bool(best) and best.get("check") is False
+        out[str(k)] = row
     return out
 
 
@@ -711,20 +718,23 @@ def run_one(args, run, seed, data_dir, data):
     if args.reuse and os.path.exists(engines_json):
         print("[%s seed %d] reusing the fronts of %s" % (run["name"], seed, d), flush=True)
         with open(engines_json) as f:
-            (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = json.load(f)["usage"]
+            saved = json.load(f)
+        (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = saved["usage"]
+        loadavg = saved.get("loadavg")
     else:
         for name in ("lgp-front.json", "operon-front.csv", "engines.json"):
             if os.path.exists(os.path.join(d, name)):
                 os.remove(os.path.join(d, name))
         print("[%s seed %d] lgp and Operon together, %g s each ..." % (run["name"], seed,
                                                                        args.budget), flush=True)
+        loadavg = " ".join("%.2f" % v for v in os.getloadavg())
         usage = run_together(jobs, deadline_s=3 * args.budget + 300)
         (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = usage
         for label, rc, j in (("lgp", lrc, jobs[0]), ("operon", orc, jobs[1])):
             if rc != 0:
                 sys.exit("error: %s exited %d; see %s" % (label, rc, j["stderr"]))
         with open(engines_json, "w") as f:
-            json.dump({"usage": usage, "commands": commands}, f, indent=1)
+            json.dump({"usage": usage, "loadavg": loadavg, "commands": commands}, f, indent=1)
             f.write("\n")
     score_cmds = []
     print("[%s seed %d] measuring and scoring both fronts ..." % (run["name"], seed), flush=True)
@@ -734,13 +744,15 @@ def run_one(args, run, seed, data_dir, data):
                                             data["var_train"], data["var_heldout"])
     train_rows = load_rows(os.path.join(data_dir, "train.csv"), inputs)
     score_operon(args, op_members, inputs, data_dir, d, train_rows, score_cmds)
-    lgp_k, op_k = per_k(lgp_members, "lgp"), per_k(op_members, "operon")
+    lgp_k, op_k = per_k(lgp_members), per_k(op_members)
     table = {k: {"lgp_rms": lgp_k[k]["rms"], "operon_rms": op_k[k]["rms"],
                  "rms_ratio": ratio(lgp_k[k]["rms"], op_k[k]["rms"]),
                  "lgp_max": lgp_k[k]["max"], "operon_max": op_k[k]["max"],
-                 "max_ratio": ratio(lgp_k[k]["max"], op_k[k]["max"])} for k in lgp_k}
+                 "max_ratio": ratio(lgp_k[k]["max"], op_k[k]["max"]),
+                 "operon_rms_unchecked": op_k[k]["rms_unchecked"],
+                 "operon_max_unchecked": op_k[k]["max_unchecked"]} for k in lgp_k}
     return {
-        "table": run["name"], "title": run["title"], "seed": seed, "dir": d,
+        "table": run["name"], "title": run["title"], "seed": seed, "dir": d, "loadavg": loadavg,
         "commands": commands, "scoring_commands": score_cmds, "per_k": table,
         "lgp": dict(lgp_prog, wall_s=lwall, cpu_s=lcpu, killed=lkill, members=lgp_members),
         "operon": dict(operon_log(jobs[1]["stdout"]), wall_s=owall, cpu_s=ocpu, killed=okill,
@@ -765,17 +777,22 @@ def fmt_ratio(r):
     return "**%s**" % s if r > 1 else s
 
 
+def dagger(t, key):
+    return " &dagger;" if t.get("operon_%s_unchecked" % key) else ""
+
+
 def ratio_table(results, key, L):
     L.append("| table | seed | " + " | ".join("k = %d" % k if i == 0 else str(k)
                                                for i, k in enumerate(KS)) + " |")
     L.append("|---|---|" + "---|" * len(KS))
     for x in results:
         L.append("| %s | %d | %s |" % (x["title"], x["seed"], " | ".join(
-            fmt_ratio(x["per_k"][str(k)][key]) for k in KS)))
+            fmt_ratio(x["per_k"][str(k)][key + "_ratio"]) + dagger(x["per_k"][str(k)], key)
+            for k in KS)))
 
 
-def isa_range(members, engine):
-    v = [m["isa"] for m in members if usable(m, engine)]
+def isa_range(members):
+    v = [m["isa"] for m in members if usable(m)]
     return "%g-%g" % (min(v), max(v)) if v else "-"
 
 
@@ -790,21 +807,22 @@ def check_summary(members):
 
 def report(meta, data_info, results):
     L = ["# lgp and Operon in measured GPU instructions, on held-out rows", ""]
-    L.append("CPU: %s. Load average at the start: %s. Budget %g s wall per engine and output, "
-             "1 thread each, both engines of a run started together; seeds %s." % (
-                 meta["cpu"], meta["loadavg"], meta["budget"],
-                 ", ".join(str(s) for s in meta["seeds"])))
+    L.append("CPU: %s. Budget %g s wall per engine and output, 1 thread each, both engines of "
+             "a run started together; seeds %s." % (
+                 meta["cpu"], meta["budget"], ", ".join(str(s) for s in meta["seeds"])))
     if meta.get("lgp_config_json"):
         L.append("lgp config patch (`--config-json`): %s." % code_span(json.dumps(
             meta["lgp_config_json"], separators=(",", ":"))))
     L += ["", "ISA = RDNA2 instructions of the member's `lgp emit --lang hlsl --fast` code over an "
           "I/O-only shader (ACO, RADV's null device); Operon's models translated into lgp's "
           "formula grammar. Errors are float32 on the held-out rows. Ratio lgp / Operon (below "
-          "1: lgp better; bold: Operon better; -: an engine has no member at or below k).", ""]
+          "1: lgp better; bold: Operon better; -: an engine has no member at or below k; "
+          "&dagger;: Operon's figure comes from a member that failed the translation check, "
+          "i.e. from its translation, listed under its table).", ""]
     L += ["## Best held-out RMS at ISA <= k, lgp / Operon", ""]
-    ratio_table(results, "rms_ratio", L)
+    ratio_table(results, "rms", L)
     L += ["", "## Best held-out max |error| at ISA <= k, lgp / Operon", ""]
-    ratio_table(results, "max_ratio", L)
+    ratio_table(results, "max", L)
     busy = [(x["title"], x["seed"], e, r["cpu_s"] / r["wall_s"]) for x in results
             for e, r in (("lgp", x["lgp"]), ("Operon", x["operon"]))
             if r["cpu_s"] < 0.8 * r["wall_s"]]
@@ -821,24 +839,25 @@ def report(meta, data_info, results):
               "|---|---|---|---|---|---|---|"]
         for k in KS:
             t = x["per_k"][str(k)]
-            L.append("| %d | %s | %s | %s | %s | %s | %s |" % (
-                k, fmt(t["lgp_rms"], ".3e"), fmt(t["operon_rms"], ".3e"),
+            L.append("| %d | %s | %s%s | %s | %s | %s%s | %s |" % (
+                k, fmt(t["lgp_rms"], ".3e"), fmt(t["operon_rms"], ".3e"), dagger(t, "rms"),
                 fmt_ratio(t["rms_ratio"]), fmt(t["lgp_max"], ".3e"), fmt(t["operon_max"], ".3e"),
-                fmt_ratio(t["max_ratio"])))
+                dagger(t, "max"), fmt_ratio(t["max_ratio"])))
         n, ok, worst, _ = check_summary(o["members"])
         mism = [m for m in g["members"] if m.get("formula_matches") is False]
+        L += ["", "Load average when the engines started: %s." % (x.get("loadavg") or "-")]
         L += ["", "| engine | wall s | CPU s | search s | generations | evaluations | front "
               "(usable) | ISA range |", "|---|---|---|---|---|---|---|---|"]
         L.append("| lgp | %.1f | %.1f | %s | %s | %s | %d (%d) | %s |" % (
             g["wall_s"], g["cpu_s"], fmt(g["search_s"], ".1f"), g["generations"],
             g["evaluations"], len(g["members"]),
-            sum(usable(m, "lgp") for m in g["members"]), isa_range(g["members"], "lgp")))
+            sum(usable(m) for m in g["members"]), isa_range(g["members"])))
         L.append("| Operon | %.1f | %.1f | %s | %s | %s | %d (%d) | %s |" % (
             o["wall_s"], o["cpu_s"], fmt(o["search_s"], ".1f"), o["generations"],
             o["evaluations"], len(o["members"]),
-            sum(usable(m, "operon") for m in o["members"]), isa_range(o["members"], "operon")))
+            sum(usable(m) for m in o["members"]), isa_range(o["members"])))
         held = [abs(m["heldout_rms"] - m["heldout_rms_operon"]) / m["heldout_rms_operon"]
-                for m in o["members"] if m.get("check") and finite(m.get("heldout_rms"))
+                for m in o["members"] if finite(m.get("heldout_rms"))
                 and finite(m.get("heldout_rms_operon")) and m["heldout_rms_operon"] > 0]
         L += ["", "Translation check: %d of %d Operon members' double-precision training RMS "
               "through lgp is within %g relative (+ %g float32 ulp of max |y|) of Operon's own; "
@@ -848,11 +867,14 @@ def report(meta, data_info, results):
                                        fmt(max(held) if held else None, ".2e"))]
         bad = [m for m in o["members"] if not m.get("check")]
         for m in bad:
-            L.append("- failed: length %d, Operon RMS %s, lgp double RMS %s, Python double RMS "
-                     "%s%s" % (m["length"], fmt(m["train_rms_operon"], ".4e"),
-                               fmt(m.get("train_rms_f64"), ".4e"),
-                               fmt(m.get("train_rms_python_f64"), ".4e"),
-                               "; " + m["failed"] if m.get("failed") else ""))
+            L.append("- failed: length %d, ISA %s, training RMS: Operon %s, lgp double %s, "
+                     "Python double (Operon's semantics) %s; held-out RMS: Operon %s, "
+                     "translation %s%s" % (
+                         m["length"], fmt(m.get("isa"), "g"), fmt(m["train_rms_operon"], ".4e"),
+                         fmt(m.get("train_rms_f64"), ".4e"),
+                         fmt(m.get("train_rms_python_f64"), ".4e"),
+                         fmt(m.get("heldout_rms_operon"), ".4e"), fmt(m.get("heldout_rms"), ".4e"),
+                         "; " + m["failed"] if m.get("failed") else ""))
         if o["dropped_not_finite"]:
             L.append("- %d Operon members without a finite training NMSE left out." %
                      o["dropped_not_finite"])

@@ -207,13 +207,16 @@ class Tables(unittest.TestCase):
              {"isa": 12, "heldout_rms": 0.01, "heldout_max": 0.5, "check": True},
              {"isa": 30, "heldout_rms": 0.001, "heldout_max": 0.01, "check": False},
              {"isa": 9, "heldout_rms": None, "heldout_max": None, "check": True}]
-        t = run.per_k(m, "operon")
-        self.assertEqual(t["8"], {"rms": 0.1, "max": 0.3})
-        self.assertEqual(t["10"], {"rms": 0.1, "max": 0.3})
-        self.assertEqual(t["12"], {"rms": 0.01, "max": 0.3})  # each figure minimised alone
-        self.assertEqual(t["64"], {"rms": 0.01, "max": 0.3})  # the failed check is left out
-        self.assertEqual(run.per_k(m, "lgp")["64"], {"rms": 0.001, "max": 0.01})
-        self.assertEqual(run.per_k(m[1:], "lgp")["8"], {"rms": None, "max": None})
+        t = run.per_k(m)
+        self.assertEqual(t["8"], {"rms": 0.1, "max": 0.3, "rms_unchecked": False,
+                                  "max_unchecked": False})
+        self.assertEqual(t["10"], t["8"])  # the member without held-out figures is left out
+        # Each figure minimised on its own.
+        self.assertEqual((t["12"]["rms"], t["12"]["max"]), (0.01, 0.3))
+        # A member that failed the translation check counts, and is marked.
+        self.assertEqual(t["64"], {"rms": 0.001, "max": 0.01, "rms_unchecked": True,
+                                   "max_unchecked": True})
+        self.assertEqual(run.per_k(m[1:])["8"]["rms"], None)
         self.assertEqual(run.ratio(0.5, 0.25), 2.0)
         self.assertIsNone(run.ratio(None, 0.25))
 
