@@ -1,5 +1,7 @@
 // `lgp score table --expr "..."`: metrics and cost of a formula on a table, with the same
-// fields as a front member (so published formulas can be compared with a front).
+// fields as a front member (so published formulas can be compared with a front). With --each,
+// every --expr and every line of an --expr-file is a whole formula of its own, scored alone
+// (bench/peer scores whole fronts this way).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -59,6 +61,73 @@ std::vector<std::string> takeExprs(int& argc, char** argv, std::string& error) {
   return exprs;
 }
 
+// An --expr-file of --each: many formulas (a front's worth), each within kMaxFormulaBytes.
+constexpr size_t kMaxEachFileBytes = size_t{64} << 20;
+
+// Adds "cost_measured" to a scored formula: the formula as `lgp emit --lang hlsl --fast` writes
+// it, compiled for every AMD family. Returns "" or why the cost is not available; fails only
+// on an internal error.
+lgp::Expected<std::string> measureInto(nlohmann::json& j, const lgp::Table& table) {
+  lgp::ProgramShape shape;
+  shape.num_inputs = static_cast<int>(table.numInputs());
+  shape.num_outputs = static_cast<int>(table.numOutputs());
+  shape.max_length = 255;
+  shape.num_constants = 255;
+  shape.output_mode = lgp::OutputMode::Designated;
+  auto p = lgp::programFromJson(j["program"], shape);
+  if (!p) return lgp::Status::error("internal: " + p.error());
+  const lgp::emit::MeasureOptions mo;
+  auto m = lgp::emit::measureProgram(lgp::emit::emitInputForTable(*p, table), mo);
+  if (!m) return "measured cost: not available (" + m.error() + ")";
+  j["cost_measured"] = *m;
+  return std::string();
+}
+
+// --each: every text is a whole formula. JSON: an array of results (a failed formula is
+// {"index", "name", "text", "failed": why}); text: one line per formula.
+int scoreEach(const std::vector<std::string>& texts, const std::string& name,
+              const std::map<std::string, std::string>& aliases, const lgp::Table& table,
+              const lgp::emit::ScoreOptions& so, bool measure, bool json) {
+  nlohmann::json all = nlohmann::json::array();
+  if (!json)
+    std::printf("%5s %11s %11s %11s %7s  %s\n", "#", "rmse f32", "rmse f64", "max_abs f32", "rdna2",
+                "formula");
+  for (size_t i = 0; i < texts.size(); ++i) {
+    const std::string label = name + " " + std::to_string(i + 1);
+    auto r = lgp::emit::scoreFormula(label, {texts[i]}, aliases, table, so);
+    std::string note;
+    if (r && measure) {
+      auto m = measureInto(*r, table);
+      if (!m) return fail(m.error());
+      note = *m;
+    }
+    nlohmann::json j = r ? std::move(*r) : nlohmann::json{{"name", label}, {"failed", r.error()}};
+    j["index"] = i;
+    if (!note.empty()) j["cost_measured_note"] = note;
+    if (json) {
+      if (!r) j["text"] = texts[i];
+      all.push_back(std::move(j));
+      continue;
+    }
+    if (!r) {
+      std::printf("%5zu failed: %s\n", i + 1, r.error().c_str());
+      continue;
+    }
+    auto f = [&](const char* path, const char* k) {
+      const auto& v = j["outputs"][0][path][k];
+      return v.is_number() ? num(v.get<double>()) : std::string("inf");
+    };
+    const std::string isa = j.contains("cost_measured")
+                                ? num(j["cost_measured"]["rdna2"]["instructions"].get<double>())
+                                : std::string("-");
+    std::printf("%5zu %11s %11s %11s %7s  %s\n", i + 1, f("float32", "rmse").c_str(),
+                f("double", "rmse").c_str(), f("float32", "max_abs").c_str(), isa.c_str(),
+                j.value("formula", "").c_str());
+  }
+  if (json) std::cout << all.dump(2) << "\n";
+  return 0;
+}
+
 int scoreMain(int argc, char** argv) {
   std::string expr_error;
   std::vector<std::string> texts = takeExprs(argc, argv, expr_error);
@@ -87,17 +156,30 @@ int scoreMain(int argc, char** argv) {
       "cost-model", "gpu-generic, nvidia, gcn, rdna, cpu",
       cxxopts::value<std::string>()->default_value("gpu-generic"))(
       "no-measure", "skip the measured GPU cost (compiling the formula to AMD ISA)")(
-      "json", "print the result as JSON (the fields of a front member)")("h,help", "this help");
+      "each",
+      "score each formula alone: every --expr and every non-empty line of every --expr-file is "
+      "a whole formula; --json prints an array, one entry per formula (a formula that fails "
+      "gets \"failed\": why)")("json", "print the result as JSON (the fields of a front member)")(
+      "h,help", "this help");
   opts.parse_positional({"table"});
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "table",
                                     "no table given (lgp score table.csv --expr \"...\")");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
   const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
+  const bool each = args.count("each") > 0;
   if (args.count("expr-file")) {
     for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
-      auto text = lgp::readInputFile(f, lgp::emit::kMaxFormulaBytes);
+      // With --each a file holds many formulas, each within kMaxFormulaBytes (scoreFormula
+      // checks every one).
+      auto text = lgp::readInputFile(f, each ? kMaxEachFileBytes : lgp::emit::kMaxFormulaBytes);
       if (!text) return fail("--expr-file: " + text.error());
-      texts.push_back(std::move(*text));
+      if (!each) {
+        texts.push_back(std::move(*text));
+        continue;
+      }
+      std::stringstream lines(*text);
+      for (std::string line; std::getline(lines, line);)
+        if (line.find_first_not_of(" \t\r") != std::string::npos) texts.push_back(line);
     }
   }
   if (texts.empty()) return fail("give the formula with --expr or --expr-file");
@@ -131,26 +213,18 @@ int scoreMain(int argc, char** argv) {
     return fail("--cost-model: unknown target '" + args["cost-model"].as<std::string>() + "'");
   so.cost = lgp::CostModel::preset(*target);
 
+  const bool measure = !args.count("no-measure");
+  if (each)
+    return scoreEach(texts, args["name"].as<std::string>(), aliases, *table, so, measure,
+                     args.count("json") > 0);
   auto r = lgp::emit::scoreFormula(args["name"].as<std::string>(), texts, aliases, *table, so);
   if (!r) return fail(r.error());
   auto& j = *r;
   std::string measured_note;
-  if (!args.count("no-measure")) {
-    // The formula as `lgp emit --lang hlsl --fast` writes it, compiled for every AMD family.
-    lgp::ProgramShape shape;
-    shape.num_inputs = static_cast<int>(table->numInputs());
-    shape.num_outputs = static_cast<int>(table->numOutputs());
-    shape.max_length = 255;
-    shape.num_constants = 255;
-    shape.output_mode = lgp::OutputMode::Designated;
-    auto p = lgp::programFromJson(j["program"], shape);
-    if (!p) return fail("internal: " + p.error());
-    const lgp::emit::MeasureOptions mo;
-    auto m = lgp::emit::measureProgram(lgp::emit::emitInputForTable(*p, *table), mo);
-    if (m)
-      j["cost_measured"] = *m;
-    else
-      measured_note = "measured cost: not available (" + m.error() + ")";
+  if (measure) {
+    auto m = measureInto(j, *table);
+    if (!m) return fail(m.error());
+    measured_note = *m;
   }
   if (args.count("json")) {
     std::cout << j.dump(2) << "\n";

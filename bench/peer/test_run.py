@@ -1,0 +1,263 @@
+#!/usr/bin/env python3
+"""The parts of bench/peer/run.py that need no Operon and no search (CTest: peer_bench_test).
+
+    LGP=build/release/frontends/lgp python3 bench/peer/test_run.py
+
+- Operon's infix models (fixed strings in the formatter's style) translated into lgp's formula
+  grammar and scored by `lgp score --each` against values computed here by hand-written
+  functions: the double-precision RMS must be ~0.
+- The held-out grid: midpoints of the training grid, against closed forms of the cell centres;
+  a small DFG scene through `lgp data` and prepare_data (no held-out row is a training row).
+- `lgp score --each`: one result per formula, a bad formula does not stop the others, and the
+  measured cost of a formula equals that of `lgp score` on it alone.
+- The per-k table, the translation check and Operon's front CSV on fixed inputs.
+"""
+import importlib.util
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+spec = importlib.util.spec_from_file_location("peer_run", os.path.join(HERE, "run.py"))
+run = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(run)
+LGP = os.environ.get("LGP", os.path.join(run.REPO, "build", "release", "frontends", "lgp"))
+
+# Operon-style models and the same functions written by hand (double precision).
+MODELS = [
+    ("((-0.000001080394667951622978) + (1.000006079673767089843750 * ((0.5 * mu) ^ 2)))",
+     lambda mu, r: -0.000001080394667951622978 + 1.000006079673767089843750 * (0.5 * mu) ** 2),
+    ("(0.25 + (min((0.239770129323005676269531 * r), (0.142617836594581604003906 * mu)) - "
+     "max(((-0.981357216835021972656250) * mu), ((-0.302474141120910644531250) * r))))",
+     lambda mu, r: 0.25 + min(0.239770129323005676269531 * r, 0.142617836594581604003906 * mu)
+     - max(-0.981357216835021972656250 * mu, -0.302474141120910644531250 * r)),
+    ("((1.617863535881042480468750 + ((-0.870148479938507080078125) * r)) ^ "
+     "exp((1.583908796310424804687500 * r)))",
+     lambda mu, r: (1.617863535881042480468750 - 0.870148479938507080078125 * r)
+     ** math.exp(1.583908796310424804687500 * r)),
+    ("(log((2.5 * mu)) + (sqrt(abs(((-3.0) * r))) * (1 / (1.5 * mu))))",
+     lambda mu, r: math.log(2.5 * mu) + math.sqrt(abs(-3.0 * r)) / (1.5 * mu)),
+    ("((-(0.5 * mu)) - (0.125 * r) - 0.0625)",
+     lambda mu, r: -0.5 * mu - 0.125 * r - 0.0625),
+    ("(exp(((-7.434512615203857421875000) * mu)) / (1.161509752273559570312500 + "
+     "(4.812085151672363281250000 * r)))",
+     lambda mu, r: math.exp(-7.434512615203857421875000 * mu)
+     / (1.161509752273559570312500 + 4.812085151672363281250000 * r)),
+]
+# Dyadic inputs: exact in float32, so lgp's float32 inputs are the ones used here.
+GRID = [(0.125 + 0.125 * i, 0.0625 * j) for i in range(8) for j in range(16)]
+
+
+def lgp_available():
+    return os.access(LGP, os.X_OK)
+
+
+def sh(cmd):
+    return subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+class Translation(unittest.TestCase):
+    def test_text(self):
+        self.assertEqual(run.translate("((0.5 * mu) ^ 2)", ["mu"]), "y = square((0.5 * mu))")
+        self.assertEqual(run.translate("((0.5 * mu) ^ 2.5)", ["mu"]), "y = pow((0.5 * mu), 2.5)")
+        self.assertEqual(run.translate("fmax((-mu), (1 / mu))", ["mu"]),
+                         "y = max((-mu), (1 / mu))")
+        for bad in ("(tanh(mu))", "(mu + z)", "(mu +", "min(mu)"):
+            with self.assertRaises(ValueError, msg=bad):
+                run.translate(bad, ["mu"])
+
+    def test_python_evaluator_matches_hand_written(self):
+        for text, f in MODELS:
+            g = run.operon_function(text, ["mu", "r"])
+            for mu, r in GRID:
+                self.assertAlmostEqual(g([mu, r]), f(mu, r), delta=1e-12 * (1 + abs(f(mu, r))),
+                                       msg=text)
+
+    @unittest.skipUnless(lgp_available(), "no lgp CLI at $LGP")
+    def test_lgp_scores_translations_as_the_hand_written_functions(self):
+        with tempfile.TemporaryDirectory() as d:
+            for i, (text, f) in enumerate(MODELS):
+                path = os.path.join(d, "t%d.csv" % i)
+                rows = [([repr(mu), repr(r)], f(mu, r)) for mu, r in GRID]
+                run.write_rows(path, ["mu", "r"], rows)
+                res = run.lgp_score_each(LGP, path, ["mu", "r"],
+                                         [run.translate(text, ["mu", "r"])],
+                                         os.path.join(d, "f.txt"), False, [])
+                self.assertEqual(len(res), 1)
+                self.assertNotIn("failed", res[0], text)
+                scale = max(abs(y) for _, y in rows)
+                self.assertLess(run.metric(res[0], "double", "rmse"), 1e-9 * scale, text)
+                self.assertLess(run.metric(res[0], "float32", "max_abs"), 2e-5 * scale, text)
+                # A constant off by one part in 10^4 is seen.
+                wrong = text.replace("0.5", "0.50005", 1).replace("2.5", "2.50025", 1)
+                if wrong != text:
+                    res = run.lgp_score_each(LGP, path, ["mu", "r"],
+                                             [run.translate(wrong, ["mu", "r"])],
+                                             os.path.join(d, "f.txt"), False, [])
+                    self.assertGreater(run.metric(res[0], "double", "rmse"), 1e-6 * scale, text)
+
+
+class HeldOut(unittest.TestCase):
+    def test_dfg_midpoints_are_the_cell_centres(self):
+        with open(run.DFG_SCENE) as f:
+            scene = json.load(f)
+        n = 64
+        grid = {"mu": {"values": [1 / 64 + (1 - 1 / 64) * i / (n - 1) for i in range(n)]},
+                "r": {"values": [i / (n - 1) for i in range(n)]}}
+        h = run.heldout_scene(scene, grid, ["mu", "r"], True)
+        mu = [1 / 64 + (1 - 1 / 64) * (i + 0.5) / (n - 1) for i in range(n - 1)]
+        r = [(i + 0.5) / (n - 1) for i in range(n - 1)]
+        self.assertEqual(list(h["grid"]), ["mu", "r"])  # row order kept
+        for got, want in ((h["grid"]["mu"]["values"], mu), (h["grid"]["r"]["values"], r)):
+            self.assertEqual(len(got), n - 1)
+            for a, b in zip(got, want):
+                self.assertAlmostEqual(a, b, delta=1e-15)
+        self.assertEqual({k: v for k, v in h.items() if k not in ("grid", "name", "description")},
+                         {k: v for k, v in scene.items()
+                          if k not in ("grid", "name", "description")})
+
+    def test_cell_axis_and_an_axis_that_is_no_input(self):
+        scene = {"grid": {"mu": {"count": 4, "spacing": "cell"}, "r": {"count": 3}}}
+        grid = {"mu": {"values": [0.125, 0.375, 0.625, 0.875]}, "r": {"values": [0, 0.5, 1]}}
+        h = run.heldout_scene(scene, grid, ["r"], True)
+        self.assertEqual(h["grid"]["mu"], {"values": [0.125]})
+        self.assertEqual(h["grid"]["r"], {"values": [0.25, 0.75]})
+        h = run.heldout_scene(scene, grid, ["r"], False)  # not a function of r: mu varies too
+        self.assertEqual(h["grid"]["mu"], {"values": [0.25, 0.5, 0.75]})
+
+    def test_dedupe(self):
+        rows = [(["1"], 2.0), (["1"], 2.0), (["2"], 3.0), (["2"], 3.0)]
+        self.assertEqual(run.dedupe(rows), ([(["1"], 2.0), (["2"], 3.0)], 2))
+        uneven = rows + [(["2"], 3.0)]
+        self.assertEqual(run.dedupe(uneven), (uneven, 1))
+        self.assertTrue(run.is_function(rows))
+        self.assertFalse(run.is_function(rows + [(["1"], 5.0)]))
+
+    @unittest.skipUnless(lgp_available(), "no lgp CLI at $LGP")
+    def test_small_scene_through_lgp_data(self):
+        with open(run.DFG_SCENE) as f:
+            scene = json.load(f)
+        scene["grid"] = {"mu": {"count": 5, "range": [0.2, 1.0], "spacing": "edge"},
+                         "r": {"count": 4, "range": [0.25, 1.0], "spacing": "cell"}}
+        scene["accuracy"] = {"abs_error": 1e-4}
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "scene.json")
+            with open(path, "w") as f:
+                json.dump(scene, f)
+            r = run.dfg_channel("t", "t", 0.04)
+            r["scene"] = path
+            info = run.prepare_data(LGP, r, d)
+            self.assertEqual((info["train_rows"], info["heldout_rows"]), (20, 12))
+            self.assertEqual(info["heldout_in_train"], 0)
+            held = run.load_rows(os.path.join(d, "heldout.csv"), ["mu", "r"])
+            mus = sorted({x[0] for x, _ in held})
+            rs = sorted({x[1] for x, _ in held})
+            want_mu = [0.2 + 0.8 * (i + 0.5) / 4 for i in range(4)]  # cell centres of the edges
+            want_r = [0.25 + 0.75 * (i + 1) / 4 for i in range(3)]  # between the cell centres
+            for got, want in ((mus, want_mu), (rs, want_r)):
+                self.assertEqual(len(got), len(want))
+                for a, b in zip(got, want):
+                    self.assertAlmostEqual(a, b, delta=1e-12)
+            # y = 0.04 A + B from the generated held-out table.
+            full = run.read_csv(os.path.join(d, "heldout-table.csv"))
+            for (x, y), row in zip(held, full):
+                self.assertAlmostEqual(y, 0.04 * float(row["A"]) + float(row["B"]), delta=1e-15)
+            with open(os.path.join(d, "operon-data.csv")) as f:
+                self.assertEqual(len(f.read().splitlines()), 1 + 20 + 12)
+
+
+class ScoreEach(unittest.TestCase):
+    @unittest.skipUnless(lgp_available(), "no lgp CLI at $LGP")
+    def test_each_formula_alone_and_measured_as_alone(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "t.csv")
+            run.write_rows(path, ["mu", "r"], [([repr(mu), repr(r)], mu * r + 0.5)
+                                               for mu, r in GRID])
+            formulas = ["y = mu*r + 0.5", "y = nosuchname + 1", "y = exp2(-(7*mu + 4*r*r))"]
+            res = run.lgp_score_each(LGP, path, ["mu", "r"], formulas, os.path.join(d, "f.txt"),
+                                     True, [])
+            self.assertEqual([x["index"] for x in res], [0, 1, 2])
+            self.assertLess(run.metric(res[0], "double", "rmse"), 1e-12)
+            self.assertIn("failed", res[1])
+            self.assertGreater(run.metric(res[2], "double", "rmse"), 0.01)
+            alone = json.loads(sh([LGP, "score", path, "--inputs", "mu,r", "--outputs", "y",
+                                   "--expr", formulas[2], "--json"]).stdout)
+            self.assertEqual(res[2]["outputs"], alone["outputs"])
+            self.assertEqual(res[2].get("cost_measured"), alone.get("cost_measured"))
+            if "cost_measured" in alone:  # the ISA backend is here
+                self.assertGreater(run.isa_of(res[2]["cost_measured"]), 3)
+                self.assertGreater(run.isa_of(res[2]["cost_measured"]),
+                                   run.isa_of(res[0]["cost_measured"]))
+            # Text mode: a header and one line per formula.
+            p = sh([LGP, "score", path, "--inputs", "mu,r", "--outputs", "y", "--each",
+                    "--expr-file", os.path.join(d, "f.txt"), "--no-measure"])
+            self.assertEqual(p.returncode, 0, p.stderr)
+            self.assertEqual(len(p.stdout.splitlines()), 4)
+            self.assertIn("failed", p.stdout.splitlines()[2])
+
+
+class Tables(unittest.TestCase):
+    def test_per_k(self):
+        m = [{"isa": 5, "heldout_rms": 0.1, "heldout_max": 0.3, "check": True},
+             {"isa": 12, "heldout_rms": 0.01, "heldout_max": 0.5, "check": True},
+             {"isa": 30, "heldout_rms": 0.001, "heldout_max": 0.01, "check": False},
+             {"isa": 9, "heldout_rms": None, "heldout_max": None, "check": True}]
+        t = run.per_k(m)
+        self.assertEqual(t["8"], {"rms": 0.1, "max": 0.3, "rms_unchecked": False,
+                                  "max_unchecked": False})
+        self.assertEqual(t["10"], t["8"])  # the member without held-out figures is left out
+        # Each figure minimised on its own.
+        self.assertEqual((t["12"]["rms"], t["12"]["max"]), (0.01, 0.3))
+        # A member that failed the translation check counts, and is marked.
+        self.assertEqual(t["64"], {"rms": 0.001, "max": 0.01, "rms_unchecked": True,
+                                   "max_unchecked": True})
+        self.assertEqual(run.per_k(m[1:])["8"]["rms"], None)
+        self.assertEqual(run.ratio(0.5, 0.25), 2.0)
+        self.assertIsNone(run.ratio(None, 0.25))
+
+    def test_check(self):
+        self.assertTrue(run.check_ok(1.0005e-3, 1e-3, 1.0))
+        self.assertFalse(run.check_ok(1.002e-3, 1e-3, 1.0))
+        self.assertTrue(run.check_ok(1.002e-3, 1e-3, 100.0))  # within an ulp of 100
+        self.assertFalse(run.check_ok(math.nan, 1e-3, 1.0))
+
+    def test_operon_front(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "front.csv")
+            with open(path, "w") as f:
+                f.write("length,complexity_obj,r2_train,r2_test,nmse_train,nmse_test,mae_train,"
+                        "mae_test,model\n")
+                f.write('3,3,0.99,0.98,0.01,0.04,0.1,0.1,"(1.5 * mu)"\n')
+                f.write('1,1,nan,nan,nan,nan,nan,nan,"0.5"\n')
+            members, dropped = run.read_operon_front(path, 4.0, 9.0)
+        self.assertEqual(dropped, 1)
+        self.assertEqual(len(members), 1)
+        self.assertAlmostEqual(members[0]["train_rms_operon"], math.sqrt(0.01 * 4.0))
+        self.assertAlmostEqual(members[0]["heldout_rms_operon"], math.sqrt(0.04 * 9.0))
+
+    def test_named_tables(self):
+        self.assertEqual([r["name"] for r in run.named_runs("dfg")], ["dfg_f0_1", "dfg_f0_0p04"])
+        zh = run.named_runs("zh")
+        self.assertEqual([r["weights"] for r in zh],
+                         [{"ZH0": 1.0}, {"ZH1_over_ZH0": 1.0}, {"ZH2_over_ZH0": 1.0}])
+        for name in ("normalization", "energy"):
+            (r,) = run.named_runs(name)
+            self.assertTrue(os.path.exists(r["scene"]), r["scene"])
+        self.assertIsNone(run.named_runs("nosuchtable"))
+        args, _ = run.parse_args(["--out", "x", "--tables", "dfg_f0_0p04,energy", "--quick",
+                                  "--seeds", "1,2"])
+        self.assertEqual((args.budget, args.seed_list), (10, [1, 2]))
+        self.assertEqual([r["name"] for r in args.runs], ["dfg_f0_0p04", "energy"])
+        cfg = run.lgp_config(["mu", "r"], 10, 2, {"search": {"seed": 9, "population": 50}})
+        self.assertEqual(cfg["search"]["seed"], 2)  # the protocol wins
+        self.assertEqual(cfg["search"]["population"], 50)
+        self.assertTrue(cfg["search"]["linear_scaling"])
+
+
+if __name__ == "__main__":
+    unittest.main()
