@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "board.hpp"
+#include "cli_args.hpp"
 #include "lgp/config/json_reader.hpp"
 #include "report.hpp"
 
@@ -95,16 +96,9 @@ int main(int argc, char** argv) {
       "check",
       "exit 1 unless every row has a measured ISA and a held-out error (77: no GPU backend)")(
       "h,help", "help");
-  cxxopts::ParseResult args;
-  try {
-    args = opts.parse(argc, argv);
-  } catch (const std::exception& e) {
-    die(e.what());
-  }
-  if (args.count("help")) {
-    std::printf("%s\n", opts.help().c_str());
-    return 0;
-  }
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "", "");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
   const auto t0 = std::chrono::steady_clock::now();
   Options o;
   o.quick = args.count("quick") > 0;

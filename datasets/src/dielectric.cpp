@@ -138,20 +138,16 @@ DielectricValue dielectricPoint(double mu, double alpha, double eta, Visibility 
   } else {
     // Each lobe to its share of the tolerance, so that E_dielectric keeps it too.
     const double tol = want_refl && want_trans ? 0.5 * opt.abs_tol : opt.abs_tol;
-    if (want_refl) {
-      const Estimate<1> e = lobeIntegral(f, detail::Lobe::Reflection, reflWeight, tol, opt);
-      out.refl = e.value[0];
-      out.err_refl = e.error[0];
+    auto lobe = [&](detail::Lobe which, double (*w)(const Frame&, double, double, double),
+                    double& value, double& error) {
+      const Estimate<1> e = lobeIntegral(f, which, w, tol, opt);
+      value = e.value[0];
+      error = e.error[0];
       out.evals += e.evals;
       out.converged = out.converged && e.converged;
-    }
-    if (want_trans) {
-      const Estimate<1> e = lobeIntegral(f, detail::Lobe::Transmission, transWeight, tol, opt);
-      out.trans = e.value[0];
-      out.err_trans = e.error[0];
-      out.evals += e.evals;
-      out.converged = out.converged && e.converged;
-    }
+    };
+    if (want_refl) lobe(detail::Lobe::Reflection, reflWeight, out.refl, out.err_refl);
+    if (want_trans) lobe(detail::Lobe::Transmission, transWeight, out.trans, out.err_trans);
   }
   if (counters) counters->dielectric += out.evals;
   return out;

@@ -7,17 +7,14 @@
 
 #include <cmath>
 
+#include "integrator_options.hpp"
 #include "reference.hpp"
 
 using namespace lgp::datasets;
 
 namespace {
 IntegratorOptions method(IntegratorKind k, double tol = 5e-8) {
-  IntegratorOptions o;
-  o.kind = k;
-  o.abs_tol = tol;
-  o.qmc_points = 1 << 15;
-  return o;
+  return test::method(k, tol);
 }
 constexpr auto kCorr = Visibility::SmithCorrelated;
 double lambdaOf(double mu, double a) {

@@ -41,6 +41,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 namespace ref {
@@ -260,6 +261,52 @@ inline R fresnelWeight(R vh) {
   return m * m * m * m * m;
 }
 
+// int over theta_h (starting partition `breaks`) of int_0^{phimax(theta_h)} w dphi, the inner
+// integral graded towards phimax. `make(theta_h)` returns {phimax, w(phi, out)}: what depends on
+// theta_h alone is computed once per outer node.
+template <int K, class Make>
+Result<K> overHalfVectors(std::vector<R> breaks, Make make, R tol, const GkRule& g) {
+  uint64_t inner_evals = 0;
+  bool inner_ok = true;
+  auto outer = [&](R th, Vec<K>& o) {
+    auto [phimax, inner] = make(th);
+    if (phimax <= 0) return;
+    std::vector<R> b = {0};
+    gradeTowards(b, phimax, 0, phimax, phimax);
+    auto r = adaptiveGk<K>(inner, b, 1e-3L * tol, 1e-16L, g);
+    inner_evals += r.evals;
+    inner_ok = inner_ok && r.converged;
+    o = r.value;
+  };
+  auto r = adaptiveGk<K>(outer, std::move(breaks), tol, 0, g);
+  r.evals += inner_evals;
+  r.converged = r.converged && inner_ok;
+  return r;
+}
+
+// Breakpoints in theta_h for a GGX lobe on [0, thB] whose full circle ends at thA: alpha 2^k (the
+// D peak, of any width) and graded towards thA and thB.
+inline std::vector<R> ggxBreaks(R alpha, R thA, R thB) {
+  std::vector<R> b = {0, thB};
+  for (int k = -8; k < 60; ++k) {
+    const R x = std::ldexp(alpha, k);
+    if (x >= thB) break;
+    b.push_back(x);
+  }
+  if (thA > 0 && thA < thB) gradeTowards(b, thA, 0, thB);
+  gradeTowards(b, thB, 0, thB);
+  return b;
+}
+
+// phi_max of the reflection region n.l > 0: n.l = 2 (v.h)(n.h) - n.v = 0, v.h = sv sh cos + cv ch.
+inline R reflectionPhiMax(R cv, R sv, R ch, R sh) {
+  if (sv * sh > 0) {
+    const R c0 = (cv / (2 * ch) - cv * ch) / (sv * sh);
+    return c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
+  }
+  return 2 * ch * ch - 1 <= 0 ? 0 : kPi;
+}
+
 struct Dfg {
   R A = 0, B = 0, E = 0;  // E = A + B
   R error = 0;            // the adaptive rule's own summed |K - G| (max of A, B)
@@ -273,21 +320,10 @@ inline Dfg dfg(R mu, R alpha, bool separable, R tol, const GkRule& g) {
   const R theta_v = std::acos(mu);
   const R th1 = std::max<R>(0, kPi / 4 - theta_v / 2);        // n.l > 0 for every phi below
   const R th2 = std::min<R>(kPi / 2, kPi / 4 + theta_v / 2);  // for no phi above
-  uint64_t inner_evals = 0;
-  bool inner_ok = true;
-  auto outer = [&](R th, Vec<2>& o) {
+  auto make = [&](R th) {
     const R ch = std::cos(th), sh = std::sin(th);
-    // phi_max: n.l = 2 (v.h)(n.h) - n.v = 0 with v.h = sv sh cos(phi) + cv ch
-    R phimax = kPi;
-    if (sv * sh > 0) {
-      const R c0 = (cv / (2 * ch) - cv * ch) / (sv * sh);
-      phimax = c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
-    } else if (2 * ch * ch - 1 <= 0) {
-      phimax = 0;
-    }
-    if (phimax <= 0) return;
     const R dsin = ggxD(ch, sh, alpha) * sh;
-    auto inner = [&](R phi, Vec<2>& w) {
+    auto inner = [=](R phi, Vec<2>& w) {
       const R vh = sv * sh * std::cos(phi) + cv * ch;
       const R nl = 2 * vh * ch - cv;
       if (nl <= 0 || vh <= 0) return;
@@ -296,29 +332,16 @@ inline Dfg dfg(R mu, R alpha, bool separable, R tol, const GkRule& g) {
       w[0] = x * (1 - fc);
       w[1] = x * fc;
     };
-    std::vector<R> b = {0};
-    gradeTowards(b, phimax, 0, phimax, phimax);
-    auto r = adaptiveGk<2>(inner, b, 1e-3L * tol, 1e-16L, g);
-    inner_evals += r.evals;
-    inner_ok = inner_ok && r.converged;
-    o = r.value;
+    return std::make_pair(reflectionPhiMax(cv, sv, ch, sh), inner);
   };
-  std::vector<R> b = {0, th2};
-  for (int k = -8; k < 60; ++k) {  // the D peak: theta_h ~ alpha
-    const R x = std::ldexp(alpha, k);
-    if (x >= th2) break;
-    b.push_back(x);
-  }
-  if (th1 > 0 && th1 < th2) gradeTowards(b, th1, 0, th2);
-  gradeTowards(b, th2, 0, th2);
-  auto r = adaptiveGk<2>(outer, b, tol, 0, g);
+  auto r = overHalfVectors<2>(ggxBreaks(alpha, th1, th2), make, tol, g);
   Dfg d;
   d.A = r.value[0];
   d.B = r.value[1];
   d.E = d.A + d.B;
   d.error = r.error;
-  d.evals = r.evals + inner_evals;
-  d.converged = r.converged && inner_ok;
+  d.evals = r.evals;
+  d.converged = r.converged;
   return d;
 }
 
@@ -466,39 +489,21 @@ inline Result<1> sheen(R mu, R alpha, R tol, const GkRule& g) {
   const R theta_v = std::acos(mu);
   const R th1 = std::max<R>(0, kPi / 4 - theta_v / 2);
   const R th2 = std::min<R>(kPi / 2, kPi / 4 + theta_v / 2);
-  uint64_t inner_evals = 0;
-  bool inner_ok = true;
-  auto outer = [&](R th, Vec<1>& o) {
+  auto make = [&](R th) {
     const R ch = std::cos(th), sh = std::sin(th);
-    R phimax = kPi;
-    if (sv * sh > 0) {
-      const R c0 = (cv / (2 * ch) - cv * ch) / (sv * sh);
-      phimax = c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
-    } else if (2 * ch * ch - 1 <= 0) {
-      phimax = 0;
-    }
-    if (phimax <= 0) return;
     const R dsin = charlieD(sh, alpha) * sh;
-    auto inner = [&](R phi, Vec<1>& w) {
+    auto inner = [=](R phi, Vec<1>& w) {
       const R vh = sv * sh * std::cos(phi) + cv * ch;
       const R nl = 2 * vh * ch - cv;
       if (nl <= 0 || vh <= 0) return;
       w[0] = 2 * dsin * nl * vh / (nl + cv - nl * cv);  // x2: phi in [0, pi]
     };
-    std::vector<R> b = {0};
-    gradeTowards(b, phimax, 0, phimax, phimax);
-    auto r = adaptiveGk<1>(inner, b, 1e-3L * tol, 1e-16L, g);
-    inner_evals += r.evals;
-    inner_ok = inner_ok && r.converged;
-    o = r.value;
+    return std::make_pair(reflectionPhiMax(cv, sv, ch, sh), inner);
   };
   std::vector<R> b = {0, th2};
   if (th1 > 0 && th1 < th2) gradeTowards(b, th1, 0, th2);
   gradeTowards(b, th2, 0, th2, th2);
-  auto r = adaptiveGk<1>(outer, b, tol, 0, g);
-  r.evals += inner_evals;
-  r.converged = r.converged && inner_ok;
-  return r;
+  return overHalfVectors<1>(b, make, tol, g);
 }
 
 // ---------------------------------------------------------------- dielectric
@@ -538,18 +543,17 @@ inline Dielectric dielectric(R mu, R alpha, R eta, Vis vis, R tol, const GkRule&
     const R thA =
         lobe == 0 ? std::max<R>(0, kPi / 4 - theta_v / 2) : std::max<R>(0, kPi / 2 - theta_v);
     const R thB = lobe == 0 ? std::min<R>(kPi / 2, kPi / 4 + theta_v / 2) : kPi / 2;
-    uint64_t inner_evals = 0;
-    bool inner_ok = true;
-    auto outer = [&](R th, Vec<1>& o) {
+    auto make = [&](R th) {
       const R ch = std::cos(th), sh = std::sin(th);
-      R phimax = kPi;
-      if (th > thA && sv * sh > 0) {
-        const R c0 = lobe == 0 ? (cv / (2 * ch) - cv * ch) / (sv * sh) : -cv * ch / (sv * sh);
+      R phimax = kPi;  // transmission: v.h > 0 where cos(phi) > -cot(theta_v) cot(theta_h)
+      if (lobe == 0) {
+        phimax = reflectionPhiMax(cv, sv, ch, sh);
+      } else if (th > thA && sv * sh > 0) {
+        const R c0 = -cv * ch / (sv * sh);
         phimax = c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
       }
-      if (phimax <= 0) return;
       const R dsin = ggxD(ch, sh, alpha) * sh;
-      auto inner = [&](R phi, Vec<1>& w) {
+      auto inner = [=](R phi, Vec<1>& w) {
         const R vh = sv * sh * std::cos(phi) + cv * ch;
         if (vh <= 0) return;
         const R F = fresnel(vh, eta);
@@ -563,26 +567,13 @@ inline Dielectric dielectric(R mu, R alpha, R eta, Vis vis, R tol, const GkRule&
           w[0] = 2 * dsin * g2Vis(nlt, cv, alpha, vis) * (1 - F) * vh / cv;
         }
       };
-      std::vector<R> b = {0};
-      gradeTowards(b, phimax, 0, phimax, phimax);
-      auto r = adaptiveGk<1>(inner, b, 1e-3L * tol, 1e-16L, g);
-      inner_evals += r.evals;
-      inner_ok = inner_ok && r.converged;
-      o = r.value;
+      return std::make_pair(phimax, inner);
     };
-    std::vector<R> b = {0, thB};
-    for (int k = -8; k < 60; ++k) {  // the D peak: theta_h ~ alpha
-      const R x = std::ldexp(alpha, k);
-      if (x >= thB) break;
-      b.push_back(x);
-    }
-    if (thA > 0 && thA < thB) gradeTowards(b, thA, 0, thB);
-    gradeTowards(b, thB, 0, thB);
-    auto r = adaptiveGk<1>(outer, b, tol, 0, g);
+    auto r = overHalfVectors<1>(ggxBreaks(alpha, thA, thB), make, tol, g);
     (lobe == 0 ? out.refl : out.trans) = r.value[0];
     out.error = std::max(out.error, r.error);
-    out.evals += r.evals + inner_evals;
-    out.converged = out.converged && r.converged && inner_ok;
+    out.evals += r.evals;
+    out.converged = out.converged && r.converged;
   }
   return out;
 }

@@ -8,17 +8,14 @@
 #include <cmath>
 #include <numbers>
 
+#include "integrator_options.hpp"
 #include "reference.hpp"
 
 using namespace lgp::datasets;
 
 namespace {
 IntegratorOptions method(IntegratorKind k, double tol = 5e-8) {
-  IntegratorOptions o;
-  o.kind = k;
-  o.abs_tol = tol;
-  o.qmc_points = 1 << 15;
-  return o;
+  return test::method(k, tol);
 }
 // E(1, alpha) = 2^(-1/(2 alpha)) / (4 + 1/alpha): only h with n.h > 1/sqrt(2) reflect into
 // n.l > 0, and the integral in s = sin^2(theta_h) is elementary.
