@@ -13,6 +13,8 @@ const char* toString(Visibility v) {
       return "smith-correlated";
     case Visibility::SchlickSmith:
       return "schlick-smith";
+    case Visibility::SmithSeparable:
+      return "smith-separable";
   }
   return "?";
 }
@@ -22,6 +24,8 @@ const char* toString(FresnelModel v) {
       return "none";
     case FresnelModel::Schlick:
       return "schlick";
+    case FresnelModel::Dielectric:
+      return "dielectric";
   }
   return "?";
 }
@@ -40,6 +44,15 @@ const char* toString(Diffuse v) {
       return "disney";
     case Diffuse::Lambert:
       return "lambert";
+  }
+  return "?";
+}
+const char* toString(Transmission v) {
+  switch (v) {
+    case Transmission::Flux:
+      return "flux";
+    case Transmission::Radiance:
+      return "radiance";
   }
   return "?";
 }
@@ -71,16 +84,20 @@ bool fromString(const std::string& s, Ndf& v) {
   return parseEnum(s, v, {Ndf::Ggx});
 }
 bool fromString(const std::string& s, Visibility& v) {
-  return parseEnum(s, v, {Visibility::SmithCorrelated, Visibility::SchlickSmith});
+  return parseEnum(
+      s, v, {Visibility::SmithCorrelated, Visibility::SchlickSmith, Visibility::SmithSeparable});
 }
 bool fromString(const std::string& s, FresnelModel& v) {
-  return parseEnum(s, v, {FresnelModel::None, FresnelModel::Schlick});
+  return parseEnum(s, v, {FresnelModel::None, FresnelModel::Schlick, FresnelModel::Dielectric});
 }
 bool fromString(const std::string& s, RoughnessMap& v) {
   return parseEnum(s, v, {RoughnessMap::Perceptual, RoughnessMap::Linear});
 }
 bool fromString(const std::string& s, Diffuse& v) {
   return parseEnum(s, v, {Diffuse::Disney, Diffuse::Lambert});
+}
+bool fromString(const std::string& s, Transmission& v) {
+  return parseEnum(s, v, {Transmission::Flux, Transmission::Radiance});
 }
 bool fromString(const std::string& s, IntegratorKind& k) {
   return parseEnum(s, k, {IntegratorKind::Gauss, IntegratorKind::Adaptive, IntegratorKind::Qmc});

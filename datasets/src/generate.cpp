@@ -1,317 +1,289 @@
+// generate(): a scene's table. Only what the outputs need is integrated (Scene::needs), in
+// parallel over rows; quantities that depend on one input only (E_avg on r, F_avg on eta) are
+// integrated once per grid value first.
 #include "lgp/datasets/generate.hpp"
 
 #include <omp.h>
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <functional>
+#include <numbers>
 
 #include "lgp/datasets/dfg.hpp"
+#include "lgp/datasets/dielectric.hpp"
+#include "lgp/datasets/diffuse_albedo.hpp"
 #include "lgp/datasets/energy.hpp"
 #include "lgp/datasets/normalization.hpp"
+#include "lgp/datasets/quadrature.hpp"
+#include "lgp/datasets/sheen.hpp"
 #include "lgp/datasets/zh.hpp"
+#include "table_meta.hpp"
 
 namespace lgp::datasets {
 
 namespace {
 using nlohmann::json;
 
-const std::map<std::string, std::string>& definitions() {
-  static const std::map<std::string, std::string> d = {
-      {"A", "integral_H D G2 (1 - (1 - v.h)^5) / (4 (n.l)(n.v)) (n.l) dl  (scale on F0)"},
-      {"B", "integral_H D G2 (1 - v.h)^5 / (4 (n.l)(n.v)) (n.l) dl  (bias, times F90)"},
-      {"E", "integral_H D G2 / (4 (n.l)(n.v)) (n.l) dl  (directional albedo, F = 1)"},
-      {"one_minus_E", "1 - E(mu, r)"},
-      {"E_avg", "2 integral_0^1 E(mu, r) mu dmu"},
-      {"ZH0", "0.2820948 integral CBRDF(w) dw"},
-      {"ZH1", "0.4886025 integral CBRDF(w) (d.w) dw,  d = normalized first moment of CBRDF"},
-      {"ZH2", "0.3153916 integral CBRDF(w) (3 (d.w)^2 - 1) dw"},
-      {"ZH1_over_ZH0", "ZH1 / ZH0"},
-      {"ZH2_over_ZH0", "ZH2 / ZH0"},
-      {"beta", "d = normalize((1 - beta) n + beta v)"},
-      {"N",
-       "[2 integral_{cos ts}^1 E(mu) mu dmu] / [2 pi sin^2(ts) integral_0^1 f(l_rep(v), v) "
-       "(n.l_rep) mu_v dmu_v]; light centred on n, l_rep = smoothed representative point, "
-       "F = 1 (see datasets/README.md)"}};
-  return d;
-}
-
-double thetaOf(const Scene& s, double x) {
-  return s.light.size == "theta_s" ? x : 2.0 * std::atan(x);
-}
-}  // namespace
-
-Expected<GeneratedTable> generate(const Scene& s, const GenerateOptions& opt) {
-  if (s.grid.size() != 2 || s.outputs.empty())
-    return Status::error("scene: needs two grid inputs and at least one output");
-  GeneratedTable g;
-  const size_t n0 = s.grid[0].values.size(), n1 = s.grid[1].values.size();
-  const size_t rows = n0 * n1;
-  const size_t K = s.outputs.size();
+// What to compute, and where each output goes (-1: not asked for).
+struct Plan {
   IntegratorOptions io;
-  io.kind = s.accuracy.integrator;
-  io.abs_tol = 0.5 * s.accuracy.abs_error;  // the estimates are conservative; keep a margin
-  io.order = s.accuracy.gauss_order;
-  io.qmc_points = s.accuracy.qmc_points;
-  const Material& m = s.material;
-  const bool want_n = s.needs(Effect::Normalization);
-  const bool want_spec = s.wants("A") || s.wants("B") || s.wants("E") || s.wants("one_minus_E");
-  const bool split = s.needs(Effect::Fresnel);
-  const bool want_zh = s.needs(Effect::Diffuse);
-  const bool want_eavg = s.wants("E_avg");
+  std::vector<size_t> stride, count;  // row = sum_a i_a stride_a, first input fastest
+  int ax_mu = -1, ax_r = -1, ax_eta = -1;
+  int A = -1, B = -1, E = -1, one_minus_E = -1, E_avg = -1, ms_turquin = -1, ms_lobe = -1;
+  int ZH0 = -1, ZH1 = -1, ZH2 = -1, R1 = -1, R2 = -1, beta = -1, N = -1;
+  int sheen = -1, burley = -1, oren_nayar = -1;
+  int F = -1, F_avg = -1, refl = -1, trans = -1, dielectric = -1;
+  bool spec = false, split = false, zh = false, eavg = false;
 
-  g.table.input_names = s.inputNames();
-  g.table.output_names = s.outputs;
-  g.table.inputs.assign(2, std::vector<double>(rows));
-  g.table.outputs.assign(K, std::vector<double>(rows));
-  g.errors.assign(K, std::vector<double>(rows));
-  for (size_t row = 0; row < rows; ++row) {
-    g.table.inputs[0][row] = s.grid[0].values[row % n0];
-    g.table.inputs[1][row] = s.grid[1].values[row / n0];
+  size_t index(size_t row, int axis) const { return (row / stride[axis]) % count[axis]; }
+};
+
+Plan makePlan(const Scene& s) {
+  Plan p;
+  p.io.kind = s.accuracy.integrator;
+  p.io.abs_tol = 0.5 * s.accuracy.abs_error;  // the estimates are conservative; keep a margin
+  p.io.order = s.accuracy.gauss_order;
+  p.io.qmc_points = s.accuracy.qmc_points;
+  size_t stride = 1;
+  for (size_t a = 0; a < s.grid.size(); ++a) {
+    p.stride.push_back(stride);
+    p.count.push_back(s.grid[a].values.size());
+    stride *= s.grid[a].values.size();
+    const std::string& n = s.grid[a].name;
+    if (n == "mu") p.ax_mu = static_cast<int>(a);
+    if (n == "r") p.ax_r = static_cast<int>(a);
+    if (n == "eta") p.ax_eta = static_cast<int>(a);
   }
-  const int nt = opt.threads > 0 ? opt.threads : omp_get_max_threads();
-  std::vector<Counters> counters(nt);
-  std::vector<char> conv(nt, 1);
-
-  std::vector<double> eavg(n1, 0.0), eavg_err(n1, 0.0);
-  if (want_eavg) {
-#pragma omp parallel for schedule(dynamic) num_threads(nt)
-    for (long j = 0; j < static_cast<long>(n1); ++j) {
-      const int t = omp_get_thread_num();
-      const EavgValue e = eAvg(m.alpha(s.grid[1].values[j]), m.visibility, io, &counters[t]);
-      eavg[j] = e.value;
-      eavg_err[j] = e.error;
-      if (!e.converged) conv[t] = 0;
-    }
-  }
-
   auto col = [&](const char* name) -> int {
-    for (size_t k = 0; k < K; ++k)
+    for (size_t k = 0; k < s.outputs.size(); ++k)
       if (s.outputs[k] == name) return static_cast<int>(k);
     return -1;
   };
-  const int cA = col("A"), cB = col("B"), cE = col("E"), c1E = col("one_minus_E"),
-            cEa = col("E_avg"), cZ0 = col("ZH0"), cZ1 = col("ZH1"), cZ2 = col("ZH2"),
-            cR1 = col("ZH1_over_ZH0"), cR2 = col("ZH2_over_ZH0"), cBeta = col("beta"),
-            cN = col("N");
+  p.A = col("A"), p.B = col("B"), p.E = col("E"), p.one_minus_E = col("one_minus_E");
+  p.E_avg = col("E_avg"), p.ms_turquin = col("ms_turquin"), p.ms_lobe = col("ms_lobe");
+  p.ZH0 = col("ZH0"), p.ZH1 = col("ZH1"), p.ZH2 = col("ZH2"), p.R1 = col("ZH1_over_ZH0");
+  p.R2 = col("ZH2_over_ZH0"), p.beta = col("beta"), p.N = col("N");
+  p.sheen = col("E_sheen"), p.burley = col("E_burley"), p.oren_nayar = col("E_oren_nayar");
+  p.F = col("F_dielectric"), p.F_avg = col("F_avg"), p.refl = col("E_refl");
+  p.trans = col("E_trans"), p.dielectric = col("E_dielectric");
+  p.spec =
+      p.A >= 0 || p.B >= 0 || p.E >= 0 || p.one_minus_E >= 0 || p.ms_turquin >= 0 || p.ms_lobe >= 0;
+  p.split = s.needs(Effect::Fresnel);
+  p.zh = s.needs(Effect::Diffuse);
+  p.eavg = p.E_avg >= 0 || p.ms_lobe >= 0;
+  return p;
+}
 
+// One value per grid point of one axis, integrated in parallel before the rows.
+struct PerAxis {
+  std::vector<double> value, error;
+};
+PerAxis perAxis(const std::vector<double>& xs, int nt, std::vector<char>& conv,
+                std::vector<Counters>& counters,
+                const std::function<void(double, Counters&, double&, double&, bool&)>& f) {
+  PerAxis out{std::vector<double>(xs.size()), std::vector<double>(xs.size())};
 #pragma omp parallel for schedule(dynamic) num_threads(nt)
-  for (long row = 0; row < static_cast<long>(rows); ++row) {
+  for (long j = 0; j < static_cast<long>(xs.size()); ++j) {
     const int t = omp_get_thread_num();
-    Counters& c = counters[t];
-    const double x0 = g.table.inputs[0][row], x1 = g.table.inputs[1][row];
-    auto put = [&](int k, double v, double e) {
-      if (k < 0) return;
-      g.table.outputs[k][row] = v;
-      g.errors[k][row] = e;
-    };
-    if (want_n) {
-      const NormalizationValue nv =
-          normalizationPoint(m.alpha(x0), thetaOf(s, x1), m.visibility, s.light.softmin_s, io, &c);
-      put(cN, nv.N, nv.error);
-      if (!nv.converged) conv[t] = 0;
-      continue;
-    }
-    const double mu = x0, r = x1;
-    if (want_spec) {
-      const DfgValue d = dfgPoint(mu, m.alpha(r), m.visibility, split, io, &c);
-      put(cA, d.A, d.err_A);
-      put(cB, d.B, d.err_B);
-      put(cE, d.E, d.err_E);
-      put(c1E, 1.0 - d.E, d.err_E);
-      if (!d.converged) conv[t] = 0;
-    }
-    if (want_eavg) put(cEa, eavg[row / n0], eavg_err[row / n0]);
-    if (want_zh) {
-      const ZhValue z = zhPoint(mu, r, m.diffuse, io, &c);
-      put(cZ0, z.zh0, z.err_zh0);
-      put(cZ1, z.zh1, z.err_zh1);
-      put(cZ2, z.zh2, z.err_zh2);
-      put(cR1, z.ratio1, z.err_ratio1);
-      put(cR2, z.ratio2, z.err_ratio2);
-      put(cBeta, z.beta, z.err_beta);
-      if (!z.converged) conv[t] = 0;
-    }
+    bool ok = true;
+    f(xs[j], counters[t], out.value[j], out.error[j], ok);
+    if (!ok) conv[t] = 0;
   }
-  for (int t = 0; t < nt; ++t) {
-    g.counters.add(counters[t]);
-    g.converged = g.converged && conv[t];
+  return out;
+}
+
+// Writes row `row` of the outputs.
+struct RowSink {
+  GeneratedTable& g;
+  size_t row;
+  void put(int k, double v, double e) const {
+    if (k < 0) return;
+    g.table.outputs[k][row] = v;
+    g.errors[k][row] = e;
   }
-  json max_by = json::object();
-  for (size_t k = 0; k < K; ++k) {
+};
+
+// ms_lobe = (1 - E) / sqrt(pi d), d = 1 - E_avg, multiplies E's error by 1 / sqrt(pi d) and
+// E_avg's by (1 - E) / (2 sqrt(pi) d^1.5) <= 1 / (2 sqrt(pi) d^1.5): for a sharp lobe
+// (d ~ 1e-4) the integrals are resolved that much further (down to 1e-10 for both; beyond
+// that the estimate says what is left: at r < 0.25 the target of a 1e-6 table is out of
+// reach), with four times the evaluation budget for that second E_avg.
+EavgValue eAvgFor(double alpha, Visibility vis, const IntegratorOptions& io, bool ms_lobe,
+                  Counters& c) {
+  EavgValue e = eAvg(alpha, vis, io, &c);
+  const double d = 1.0 - e.value;
+  if (!ms_lobe || !(d > 0.0)) return e;
+  const double need = io.abs_tol * std::sqrt(std::numbers::pi) * d * std::sqrt(d);
+  if (e.error <= need) return e;
+  IntegratorOptions tight = io;
+  tight.abs_tol = std::max(1e-10, 0.5 * need);
+  tight.max_evals = 4 * io.max_evals;
+  const uint64_t before = e.evals;
+  e = eAvg(alpha, vis, tight, &c);
+  e.evals += before;
+  return e;
+}
+
+// The dfg family and the energy terms built from E at (mu, r). ms_turquin = (1 - E) / E
+// multiplies E's error by 1 / E^2 (up to 11 at r = 1, mu = 1): a second pass tightens E there.
+bool rowSpecular(const Plan& p, const Material& m, double mu, double r, const PerAxis& eavg,
+                 size_t ir, const RowSink& out, Counters& c) {
+  IntegratorOptions io = p.io;
+  if (p.ms_lobe >= 0 && eavg.value[ir] < 1.0)  // see eAvgFor
+    io.abs_tol = std::max(
+        1e-10, io.abs_tol * std::min(1.0, std::sqrt(std::numbers::pi * (1.0 - eavg.value[ir]))));
+  DfgValue d = dfgPoint(mu, m.alpha(r), m.visibility, p.split, io, &c);
+  if (p.ms_turquin >= 0 && d.E > 0.0 && d.err_E > p.io.abs_tol * d.E * d.E) {
+    io.abs_tol = std::min(io.abs_tol, 0.5 * p.io.abs_tol * d.E * d.E);
+    d = dfgPoint(mu, m.alpha(r), m.visibility, p.split, io, &c);
+  }
+  out.put(p.A, d.A, d.err_A);
+  out.put(p.B, d.B, d.err_B);
+  out.put(p.E, d.E, d.err_E);
+  out.put(p.one_minus_E, 1.0 - d.E, d.err_E);
+  const DerivedValue t = msTurquin(d.E, d.err_E);
+  out.put(p.ms_turquin, t.value, t.error);
+  if (p.ms_lobe >= 0) {
+    const DerivedValue l = msLobe(d.E, d.err_E, eavg.value[ir], eavg.error[ir]);
+    out.put(p.ms_lobe, l.value, l.error);
+  }
+  return d.converged;
+}
+
+bool rowZh(const Plan& p, const Material& m, double mu, double r, const RowSink& out, Counters& c) {
+  const ZhValue z = zhPoint(mu, r, m.diffuse, p.io, &c);
+  out.put(p.ZH0, z.zh0, z.err_zh0);
+  out.put(p.ZH1, z.zh1, z.err_zh1);
+  out.put(p.ZH2, z.zh2, z.err_zh2);
+  out.put(p.R1, z.ratio1, z.err_ratio1);
+  out.put(p.R2, z.ratio2, z.err_ratio2);
+  out.put(p.beta, z.beta, z.err_beta);
+  return z.converged;
+}
+
+bool rowDielectric(const Plan& p, const Material& m, double mu, double r, double eta,
+                   const PerAxis& favg, size_t ieta, const RowSink& out, Counters& c) {
+  if (p.F >= 0) out.put(p.F, fresnelDielectric(mu, eta), kRoundoff);
+  if (p.F_avg >= 0) out.put(p.F_avg, favg.value[ieta], favg.error[ieta]);
+  const bool refl = p.refl >= 0 || p.dielectric >= 0;
+  const bool trans = p.trans >= 0 || p.dielectric >= 0;
+  if (!refl && !trans) return true;
+  const DielectricValue d =
+      dielectricPoint(mu, m.alpha(r), eta, m.visibility, m.transmission, refl, trans, p.io, &c);
+  out.put(p.refl, d.refl, d.err_refl);
+  out.put(p.trans, d.trans, d.err_trans);
+  out.put(p.dielectric, d.refl + d.trans, d.err_refl + d.err_trans);
+  return d.converged;
+}
+
+// Every output of one row; false if an integral did not converge.
+bool evalRow(const Scene& s, const Plan& p, const PerAxis& eavg, const PerAxis& favg,
+             const RowSink& out, Counters& c) {
+  const Material& m = s.material;
+  const size_t row = out.row;
+  if (p.N >= 0) {
+    const double r = s.grid[0].values[p.index(row, 0)];
+    const double x1 = s.grid[1].values[p.index(row, 1)];
+    const double theta = s.light.size == "theta_s" ? x1 : 2.0 * std::atan(x1);
+    const NormalizationValue nv =
+        normalizationPoint(m.alpha(r), theta, m.visibility, s.light.softmin_s, p.io, &c);
+    out.put(p.N, nv.N, nv.error);
+    return nv.converged;
+  }
+  auto at = [&](int axis, double dflt) {
+    return axis < 0 ? dflt : s.grid[axis].values[p.index(row, axis)];
+  };
+  const double mu = at(p.ax_mu, 1.0), r = at(p.ax_r, 0.0), eta = at(p.ax_eta, 1.0);
+  const size_t ir = p.ax_r < 0 ? 0 : p.index(row, p.ax_r);
+  const size_t ieta = p.ax_eta < 0 ? 0 : p.index(row, p.ax_eta);
+  bool ok = true;
+  if (p.spec) ok = rowSpecular(p, m, mu, r, eavg, ir, out, c) && ok;
+  if (p.E_avg >= 0) out.put(p.E_avg, eavg.value[ir], eavg.error[ir]);
+  if (p.zh) ok = rowZh(p, m, mu, r, out, c) && ok;
+  if (p.sheen >= 0) {
+    const SheenValue v = sheenPoint(mu, m.alpha(r), p.io, &c);
+    out.put(p.sheen, v.E, v.error);
+    ok = v.converged && ok;
+  }
+  if (p.burley >= 0) {
+    const AlbedoValue v = burleyAlbedo(mu, r, &c);
+    out.put(p.burley, v.E, v.error);
+  }
+  if (p.oren_nayar >= 0) {
+    const AlbedoValue v = orenNayarAlbedo(mu, r, &c);
+    out.put(p.oren_nayar, v.E, v.error);
+  }
+  if (p.ax_eta >= 0) ok = rowDielectric(p, m, mu, r, eta, favg, ieta, out, c) && ok;
+  return ok;
+}
+
+// Every value finite; the largest estimate per output (and overall) into `max_by`.
+Status checkAndSummarize(const Scene& s, GeneratedTable& g, json& max_by) {
+  max_by = json::object();
+  for (size_t k = 0; k < s.outputs.size(); ++k) {
     double mx = 0;
-    for (size_t row = 0; row < rows; ++row) {
-      if (!std::isfinite(g.table.outputs[k][row]))
-        return Status::error("generator produced a non-finite " + s.outputs[k] + " at " +
-                             s.grid[0].name + "=" + std::to_string(g.table.inputs[0][row]) + ", " +
-                             s.grid[1].name + "=" + std::to_string(g.table.inputs[1][row]));
+    for (size_t row = 0; row < g.table.rows(); ++row) {
+      if (!std::isfinite(g.table.outputs[k][row])) {
+        std::string at;
+        for (size_t a = 0; a < s.grid.size(); ++a)
+          at += (a ? ", " : "") + s.grid[a].name + "=" + std::to_string(g.table.inputs[a][row]);
+        return Status::error("generator produced a non-finite " + s.outputs[k] + " at " + at);
+      }
       mx = std::max(mx, g.errors[k][row]);
     }
     max_by[s.outputs[k]] = mx;
     g.max_error = std::max(g.max_error, mx);
   }
+  return Status::ok();
+}
+}  // namespace
 
-  json defs = json::object();
-  for (const auto& o : s.outputs) defs[o] = definitions().at(o);
-  json grid = json::object();
-  for (const auto& a : s.grid) {
-    json ga = {{"spacing", a.spacing}, {"count", a.values.size()}, {"values", a.values}};
-    if (a.spacing != "values") ga["range"] = {a.lo, a.hi};
-    grid[a.name] = ga;
+Expected<GeneratedTable> generate(const Scene& s, const GenerateOptions& opt) {
+  if (s.grid.empty() || s.grid.size() > 3 || s.outputs.empty())
+    return Status::error("scene: needs one to three grid inputs and at least one output");
+  const Plan p = makePlan(s);
+  GeneratedTable g;
+  const size_t rows = s.rows(), K = s.outputs.size();
+  g.table.input_names = s.inputNames();
+  g.table.output_names = s.outputs;
+  g.table.inputs.assign(s.grid.size(), std::vector<double>(rows));
+  g.table.outputs.assign(K, std::vector<double>(rows));
+  g.errors.assign(K, std::vector<double>(rows));
+  for (size_t row = 0; row < rows; ++row)
+    for (size_t a = 0; a < s.grid.size(); ++a)
+      g.table.inputs[a][row] = s.grid[a].values[p.index(row, static_cast<int>(a))];
+
+  const int nt = opt.threads > 0 ? opt.threads : omp_get_max_threads();
+  std::vector<Counters> counters(nt);
+  std::vector<char> conv(nt, 1);
+  const Material& m = s.material;
+  PerAxis eavg, favg;
+  if (p.eavg)
+    eavg = perAxis(s.axis("r")->values, nt, conv, counters,
+                   [&](double r, Counters& c, double& v, double& e, bool& ok) {
+                     const EavgValue x = eAvgFor(m.alpha(r), m.visibility, p.io, p.ms_lobe >= 0, c);
+                     v = x.value, e = x.error, ok = x.converged;
+                   });
+  if (p.F_avg >= 0)
+    favg = perAxis(s.axis("eta")->values, nt, conv, counters,
+                   [&](double eta, Counters& c, double& v, double& e, bool& ok) {
+                     const FavgValue x = fresnelAverageDielectric(eta, p.io, &c);
+                     v = x.value, e = x.error, ok = x.converged;
+                   });
+#pragma omp parallel for schedule(dynamic) num_threads(nt)
+  for (long row = 0; row < static_cast<long>(rows); ++row) {
+    const int t = omp_get_thread_num();
+    if (!evalRow(s, p, eavg, favg, RowSink{g, static_cast<size_t>(row)}, counters[t])) conv[t] = 0;
   }
-  grid["row_order"] = "row = i_" + s.grid[0].name + " + " + std::to_string(n0) + " * i_" +
-                      s.grid[1].name + " (first input fastest)";
-  json integ = {{"method", toString(io.kind)}};
-  switch (io.kind) {
-    case IntegratorKind::Adaptive:
-      integ["abs_tol_per_integral"] = io.abs_tol;
-      integ["points_per_dim_per_region"] = io.adaptive_order;
-      integ["max_evals_per_integral"] = io.max_evals;
-      integ["error_estimate"] =
-          "sum over regions of |Q_region - Q_children|, scaled up where a region is unresolved "
-          "(max(raw, resasc min(1, (20 raw / resasc)^1.5))), plus a rounding floor of 64 eps int "
-          "|f|";
-      break;
-    case IntegratorKind::Gauss:
-      integ["order"] = io.order;
-      integ["error_estimate"] =
-          "sum over boxes of |Q_n - Q_2n|, plus a rounding floor of 64 eps int |f|";
-      break;
-    case IntegratorKind::Qmc:
-      integ["points_per_shift"] = io.qmc_points;
-      integ["shifts"] = io.qmc_shifts;
-      integ["error_estimate"] = "3 standard errors over the random shifts";
-      break;
+  for (int t = 0; t < nt; ++t) {
+    g.counters.add(counters[t]);
+    g.converged = g.converged && conv[t];
   }
-  integ["space"] = "dfg/energy: GGX half-vector CDF space; zh: (theta_l, phi); N: mu and theta_v";
-  g.table.meta = {
-      {"generated_by", std::string("lgp data (") + kGeneratorVersion + "): generated, do not edit"},
-      {"generator_version", kGeneratorVersion},
-      {"definition", defs},
-      {"scene", toJson(s)},
-      {"grid", grid},
-      {"integrator", integ},
-      {"sample_counts",
-       {{"total", g.counters.total()},
-        {"specular", g.counters.specular},
-        {"fresnel", g.counters.fresnel},
-        {"diffuse", g.counters.diffuse},
-        {"rep_point", g.counters.rep_point}}},
-      {"max_estimated_error", g.max_error},
-      {"max_estimated_error_by_output", max_by},
-      {"accuracy_target", s.accuracy.abs_error},
-      {"target_met", g.max_error <= s.accuracy.abs_error},
-      {"converged", g.converged},
-      {"limits",
-       "alpha = 0: mirror limit at fixed mu (E = 1, A = 1 - (1 - mu)^5, B = (1 - mu)^5); "
-       "mu = 0: limit mu -> 0; N(theta_s = 0) = 1, N(alpha = 0, theta_s > 0) = 0; "
-       "beta(mu = 1): limit theta_v -> 0"}};
+  json max_by;
+  if (auto st = checkAndSummarize(s, g, max_by); !st) return st;
+  g.table.meta = detail::tableMeta(s, p.io, g, max_by);
   return g;
-}
-
-json toTableJson(const GeneratedTable& g) {
-  const Table& t = g.table;
-  json j;
-  j["format"] = "lgp-table/1";
-  j["inputs"] = t.input_names;
-  j["outputs"] = t.output_names;
-  j["columns"] = json::object();
-  for (size_t i = 0; i < t.input_names.size(); ++i) j["columns"][t.input_names[i]] = t.inputs[i];
-  for (size_t k = 0; k < t.output_names.size(); ++k) j["columns"][t.output_names[k]] = t.outputs[k];
-  if (!t.weights.empty()) j["weights"] = t.weights;
-  j["errors"] = json::object();
-  for (size_t k = 0; k < t.output_names.size() && k < g.errors.size(); ++k)
-    j["errors"][t.output_names[k]] = g.errors[k];
-  j["meta"] = t.meta;
-  return j;
-}
-
-Expected<GeneratedTable> fromTableJson(const json& j, const std::string& origin) {
-  try {
-    if (j.value("format", std::string()) != "lgp-table/1")
-      return Status::error(origin + ": /format: not an lgp-table/1 table");
-    GeneratedTable g;
-    g.table.input_names = j.at("inputs").get<std::vector<std::string>>();
-    g.table.output_names = j.at("outputs").get<std::vector<std::string>>();
-    const json& cols = j.at("columns");
-    size_t rows = 0;
-    bool first = true;
-    auto column = [&](const std::string& name) -> Expected<std::vector<double>> {
-      if (!cols.contains(name)) return Status::error(origin + ": /columns/" + name + ": missing");
-      auto v = cols.at(name).get<std::vector<double>>();
-      if (first) rows = v.size(), first = false;
-      if (v.size() != rows) return Status::error(origin + ": /columns/" + name + ": wrong length");
-      for (size_t i = 0; i < v.size(); ++i)
-        if (!std::isfinite(v[i]))
-          return Status::error(origin + ": /columns/" + name + "/" + std::to_string(i) +
-                               ": not finite");
-      return v;
-    };
-    for (const auto& n : g.table.input_names) {
-      auto c = column(n);
-      if (!c) return c.status();
-      g.table.inputs.push_back(std::move(*c));
-    }
-    for (const auto& n : g.table.output_names) {
-      auto c = column(n);
-      if (!c) return c.status();
-      g.table.outputs.push_back(std::move(*c));
-      std::vector<double> e(rows, 0.0);
-      if (j.contains("errors") && j["errors"].contains(n)) {
-        e = j["errors"][n].get<std::vector<double>>();
-        if (e.size() != rows) return Status::error(origin + ": /errors/" + n + ": wrong length");
-      }
-      g.errors.push_back(std::move(e));
-    }
-    if (j.contains("weights")) g.table.weights = j["weights"].get<std::vector<double>>();
-    if (j.contains("meta")) g.table.meta = j["meta"];
-    const json& sc = g.table.meta.value("sample_counts", json::object());
-    g.counters.specular = sc.value("specular", uint64_t{0});
-    g.counters.fresnel = sc.value("fresnel", uint64_t{0});
-    g.counters.diffuse = sc.value("diffuse", uint64_t{0});
-    g.counters.rep_point = sc.value("rep_point", uint64_t{0});
-    g.max_error = g.table.meta.value("max_estimated_error", 0.0);
-    g.converged = g.table.meta.value("converged", true);
-    return g;
-  } catch (const json::exception& e) {
-    return Status::error(origin + ": malformed table: " + e.what());
-  }
-}
-
-Status writeTableCsv(const GeneratedTable& g, const std::filesystem::path& path) {
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) return Status::error(path.string() + ": cannot open for writing");
-  const Table& t = g.table;
-  std::string line;
-  for (const auto& n : t.input_names) line += (line.empty() ? "" : ",") + n;
-  for (const auto& n : t.output_names) line += "," + n;
-  std::fprintf(f, "%s\n", line.c_str());
-  for (size_t row = 0; row < t.rows(); ++row) {
-    for (size_t i = 0; i < t.inputs.size(); ++i)
-      std::fprintf(f, "%s%.17g", i ? "," : "", t.inputs[i][row]);
-    for (size_t k = 0; k < t.outputs.size(); ++k) std::fprintf(f, ",%.17g", t.outputs[k][row]);
-    std::fprintf(f, "\n");
-  }
-  const bool ok = std::fclose(f) == 0;
-  return ok ? Status::ok() : Status::error(path.string() + ": write failed");
-}
-
-RawTable toRawTable(const GeneratedTable& g) {
-  RawTable r;
-  const Table& t = g.table;
-  for (size_t i = 0; i < t.input_names.size(); ++i) {
-    r.names.push_back(t.input_names[i]);
-    r.columns.push_back(t.inputs[i]);
-  }
-  for (size_t k = 0; k < t.output_names.size(); ++k) {
-    r.names.push_back(t.output_names[k]);
-    r.columns.push_back(t.outputs[k]);
-  }
-  r.default_inputs = t.input_names;
-  r.default_outputs = t.output_names;
-  r.weights = t.weights;
-  r.meta = t.meta;
-  return r;
 }
 
 }  // namespace lgp::datasets

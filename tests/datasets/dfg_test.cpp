@@ -6,16 +6,13 @@
 
 #include <cmath>
 #include <vector>
+#include "integrator_options.hpp"
 
 using namespace lgp::datasets;
 
 namespace {
 IntegratorOptions method(IntegratorKind k, double tol = 1e-8) {
-  IntegratorOptions o;
-  o.kind = k;
-  o.abs_tol = tol;
-  o.qmc_points = 1 << 15;
-  return o;
+  return test::method(k, tol);
 }
 constexpr auto kCorr = Visibility::SmithCorrelated;
 }  // namespace

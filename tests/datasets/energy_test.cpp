@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 
 #include "lgp/datasets/dfg.hpp"
+#include "lgp/datasets/generate.hpp"
+#include "lgp/datasets/quadrature.hpp"
 
 using namespace lgp::datasets;
 
@@ -37,4 +40,43 @@ TEST(Energy, EavgAgainstIndependentQuadrature) {
   // E_avg decreases with roughness (more energy lost to single scattering)
   EXPECT_GT(eAvg(0.2, Visibility::SmithCorrelated, o).value,
             eAvg(0.8, Visibility::SmithCorrelated, o).value);
+}
+
+TEST(Energy, MultipleScatteringFactors) {
+  // Turquin 2019: f_ss (1 + F0 (1 - E) / E) has albedo E + F0 (1 - E) for F0 = 1: exactly 1.
+  for (double e : {0.3, 0.7, 1.0}) EXPECT_NEAR(e * (1.0 + msTurquin(e, 0).value), 1.0, 1e-15);
+  EXPECT_EQ(msTurquin(1.0, 0.0).value, 0.0);
+  EXPECT_NEAR(msTurquin(0.5, 1e-6).error, 4e-6, 1e-18);  // d/dE = -1/E^2
+  EXPECT_EQ(msLobe(1.0, 0, 1.0, 0).value, 0.0);          // alpha = 0
+}
+
+// The white furnace with the table's own columns: E(mu_o) plus the Kulla-Conty lobe
+// f_ms = ms_lobe(n.l) ms_lobe(n.v) integrated over l gives 1, i.e.
+// 2 pi int_0^1 ms_lobe(mu) mu dmu ms_lobe(mu_o) = 1 - E(mu_o). The light directions are the
+// table's mu column, at Gauss-Legendre nodes in x = sqrt(mu) (an independent rule: E_avg is
+// integrated with 24 nodes on its own panels).
+TEST(Energy, KullaContyLobeClosesTheFurnace) {
+  const GaussRule& g = gaussLegendre(40);
+  nlohmann::json mus = nlohmann::json::array();
+  for (double x : g.x) mus.push_back(x * x);
+  nlohmann::json j = {{"material", {{"fresnel", "none"}}},
+                      {"outputs", {"E", "E_avg", "ms_lobe"}},
+                      {"grid", {{"mu", {{"values", mus}}}, {"r", {{"values", {0.5, 0.8, 1.0}}}}}},
+                      {"accuracy", {{"abs_error", 1e-8}}}};
+  auto s = parseScene(j, "furnace");
+  ASSERT_TRUE(s) << s.error();
+  auto t = generate(*s);
+  ASSERT_TRUE(t) << t.error();
+  const size_t n = g.x.size();
+  for (size_t ir = 0; ir < 3; ++ir) {
+    double integral = 0;  // 2 pi int ms_lobe(mu) mu dmu = 2 pi int ms_lobe(x^2) x^2 2x dx
+    for (size_t i = 0; i < n; ++i)
+      integral += 2.0 * std::numbers::pi * g.w[i] * t->table.outputs[2][ir * n + i] * 2.0 * g.x[i] *
+                  g.x[i] * g.x[i];
+    for (size_t i = 0; i < n; i += 7) {
+      const size_t row = ir * n + i;
+      const double e = t->table.outputs[0][row];
+      EXPECT_NEAR(e + integral * t->table.outputs[2][row], 1.0, 2e-6) << ir << " " << i;
+    }
+  }
 }

@@ -228,3 +228,72 @@ TEST(Generate, IntegratorsAgreeOnATable) {
                   q->errors[k][row] + a->errors[k][row] + 1e-9);
   EXPECT_EQ(q->table.meta["integrator"]["method"], "qmc");
 }
+
+TEST(Generate, NewEffectsOnlyWhatIsAskedFor) {
+  {  // sheen: its own counter, no GGX
+    auto g = generate(scene(R"({"outputs": ["E_sheen"], "grid": {"mu": {"count": 3,
+                                "range": [0.2, 1]}, "r": {"count": 2, "range": [0.5, 1]}}})"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_GT(g->counters.sheen, 0u);
+    EXPECT_EQ(g->counters.specular + g->counters.dielectric + g->counters.diffuse, 0u);
+    EXPECT_EQ(g->table.meta["sample_counts"]["sheen"], g->counters.sheen);
+  }
+  {  // diffuse albedo: closed forms, no integral
+    auto g = generate(scene(R"({"outputs": ["E_burley", "E_oren_nayar"],
+                                "grid": {"mu": {"count": 3}, "r": {"count": 2}}})"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_EQ(g->counters.specular + g->counters.sheen + g->counters.dielectric, 0u);
+    EXPECT_LE(g->max_error, 1e-13);  // the rounding floor, 64 eps |E|
+  }
+  {  // F and F_avg only: no microfacet integral
+    auto g = generate(scene(R"({"material": {"fresnel": "dielectric"},
+                                "outputs": ["F_dielectric", "F_avg"],
+                                "grid": {"mu": {"count": 3}, "eta": {"values": [1, 1.5]}}})"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_EQ(g->counters.specular, 0u);
+    EXPECT_EQ(at(*g, "F_avg", 0.0, 1.0), 0.0);
+    EXPECT_NEAR(at(*g, "F_dielectric", 1.0, 1.5), 0.04, 1e-15);
+    EXPECT_EQ(at(*g, "F_avg", 0.0, 1.5), at(*g, "F_avg", 1.0, 1.5));  // repeated along mu
+  }
+  {  // older tables keep their metadata: no sheen or dielectric counts
+    auto g =
+        generate(scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 2}, "r": {"count": 2}}})"));
+    ASSERT_TRUE(g) << g.error();
+    EXPECT_FALSE(g->table.meta["sample_counts"].contains("sheen"));
+    EXPECT_FALSE(g->table.meta["sample_counts"].contains("dielectric"));
+  }
+}
+
+// Three inputs: the first fastest, E_dielectric the sum of its lobes, and the limits where
+// they are closed forms (alpha = 0: F and 1 - F; eta = 1: no reflection).
+TEST(Generate, ThreeInputDielectricTable) {
+  auto g = generate(scene(R"({"material": {"fresnel": "dielectric"},
+      "outputs": ["E_refl", "E_trans", "E_dielectric", "F_dielectric"],
+      "grid": {"mu": {"values": [0.25, 1]}, "r": {"values": [0, 0.5]},
+               "eta": {"values": [1, 1.5, 2]}}, "accuracy": {"abs_error": 1e-6}})"));
+  ASSERT_TRUE(g) << g.error();
+  const lgp::Table& t = g->table;
+  ASSERT_EQ(t.rows(), 12u);
+  EXPECT_EQ(t.input_names, (std::vector<std::string>{"mu", "r", "eta"}));
+  EXPECT_EQ(g->table.meta["grid"]["row_order"],
+            "row = i_mu + 2 * i_r + 2 * 2 * i_eta (first input fastest)");
+  for (size_t row = 0; row < t.rows(); ++row) {
+    EXPECT_EQ(t.inputs[0][row], (row % 2 == 0 ? 0.25 : 1.0));
+    EXPECT_EQ(t.inputs[2][row], (std::vector<double>{1, 1.5, 2})[row / 4]);
+    EXPECT_NEAR(t.outputs[2][row], t.outputs[0][row] + t.outputs[1][row], 1e-15);
+    if (t.inputs[1][row] == 0.0) {
+      EXPECT_EQ(t.outputs[0][row], t.outputs[3][row]);  // E_refl = F
+      EXPECT_NEAR(t.outputs[2][row], 1.0, 1e-15);       // flux: nothing lost
+    }
+    if (t.inputs[2][row] == 1.0) {
+      EXPECT_EQ(t.outputs[0][row], 0.0);
+    }
+  }
+  EXPECT_LE(g->max_error, 1e-6);
+  EXPECT_GT(g->counters.dielectric, 0u);
+  const fs::path dir = tempDir("plots3");
+  auto files = writePlots(*g, dir, "glass");
+  ASSERT_TRUE(files) << files.error();
+  EXPECT_EQ(files->size(), 4u * 3u * 2u);  // per output, at each eta: heatmap + slices
+  fs::remove_all(dir);
+}

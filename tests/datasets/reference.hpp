@@ -22,7 +22,14 @@
 //     angle in the plane of n and v (not with 3-D vectors).
 //   * zh: exactly. With baseColor = 1 the cosine-weighted Disney lobe times 1, x, z, xx, xz, zz
 //     is a polynomial in (x, z) = (l.x, l.z), and int_H x^a z^c dl = Gamma((a+1)/2)
-//     Gamma(1/2) Gamma((c+1)/2) / Gamma((a+c+3)/2) for even a (0 for odd a).
+//     Gamma(1/2) Gamma((c+1)/2) / Gamma((a+c+3)/2) for even a (0 for odd a). M0 is the Burley
+//     directional albedo.
+//   * sheen: over the half vector in (theta_h, phi) (the generator integrates over l), with the
+//     region n.l > 0 of dfg and the Charlie D and Neubelt-Pettineo visibility written out.
+//   * dielectric: both lobes over the half vector in (theta_h, phi) (the generator uses the GGX
+//     CDF with smoothstep maps), the exact Fresnel and refraction written out.
+//   * F_avg: over the polar angle theta in long double, graded towards the critical angle and
+//     grazing (the generator integrates in t with mu = mu_c + (1 - mu_c) t^2).
 // A reference is trusted only where it is shown converged: two different rules (K15 and K21),
 // each to its own tolerance, agree to far below the tolerance under test, or (where the
 // second rule costs too much) its own K - G estimate is; reference_test.cpp checks that.
@@ -34,6 +41,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 namespace ref {
@@ -253,6 +261,52 @@ inline R fresnelWeight(R vh) {
   return m * m * m * m * m;
 }
 
+// int over theta_h (starting partition `breaks`) of int_0^{phimax(theta_h)} w dphi, the inner
+// integral graded towards phimax. `make(theta_h)` returns {phimax, w(phi, out)}: what depends on
+// theta_h alone is computed once per outer node.
+template <int K, class Make>
+Result<K> overHalfVectors(std::vector<R> breaks, Make make, R tol, const GkRule& g) {
+  uint64_t inner_evals = 0;
+  bool inner_ok = true;
+  auto outer = [&](R th, Vec<K>& o) {
+    auto [phimax, inner] = make(th);
+    if (phimax <= 0) return;
+    std::vector<R> b = {0};
+    gradeTowards(b, phimax, 0, phimax, phimax);
+    auto r = adaptiveGk<K>(inner, b, 1e-3L * tol, 1e-16L, g);
+    inner_evals += r.evals;
+    inner_ok = inner_ok && r.converged;
+    o = r.value;
+  };
+  auto r = adaptiveGk<K>(outer, std::move(breaks), tol, 0, g);
+  r.evals += inner_evals;
+  r.converged = r.converged && inner_ok;
+  return r;
+}
+
+// Breakpoints in theta_h for a GGX lobe on [0, thB] whose full circle ends at thA: alpha 2^k (the
+// D peak, of any width) and graded towards thA and thB.
+inline std::vector<R> ggxBreaks(R alpha, R thA, R thB) {
+  std::vector<R> b = {0, thB};
+  for (int k = -8; k < 60; ++k) {
+    const R x = std::ldexp(alpha, k);
+    if (x >= thB) break;
+    b.push_back(x);
+  }
+  if (thA > 0 && thA < thB) gradeTowards(b, thA, 0, thB);
+  gradeTowards(b, thB, 0, thB);
+  return b;
+}
+
+// phi_max of the reflection region n.l > 0: n.l = 2 (v.h)(n.h) - n.v = 0, v.h = sv sh cos + cv ch.
+inline R reflectionPhiMax(R cv, R sv, R ch, R sh) {
+  if (sv * sh > 0) {
+    const R c0 = (cv / (2 * ch) - cv * ch) / (sv * sh);
+    return c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
+  }
+  return 2 * ch * ch - 1 <= 0 ? 0 : kPi;
+}
+
 struct Dfg {
   R A = 0, B = 0, E = 0;  // E = A + B
   R error = 0;            // the adaptive rule's own summed |K - G| (max of A, B)
@@ -266,21 +320,10 @@ inline Dfg dfg(R mu, R alpha, bool separable, R tol, const GkRule& g) {
   const R theta_v = std::acos(mu);
   const R th1 = std::max<R>(0, kPi / 4 - theta_v / 2);        // n.l > 0 for every phi below
   const R th2 = std::min<R>(kPi / 2, kPi / 4 + theta_v / 2);  // for no phi above
-  uint64_t inner_evals = 0;
-  bool inner_ok = true;
-  auto outer = [&](R th, Vec<2>& o) {
+  auto make = [&](R th) {
     const R ch = std::cos(th), sh = std::sin(th);
-    // phi_max: n.l = 2 (v.h)(n.h) - n.v = 0 with v.h = sv sh cos(phi) + cv ch
-    R phimax = kPi;
-    if (sv * sh > 0) {
-      const R c0 = (cv / (2 * ch) - cv * ch) / (sv * sh);
-      phimax = c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
-    } else if (2 * ch * ch - 1 <= 0) {
-      phimax = 0;
-    }
-    if (phimax <= 0) return;
     const R dsin = ggxD(ch, sh, alpha) * sh;
-    auto inner = [&](R phi, Vec<2>& w) {
+    auto inner = [=](R phi, Vec<2>& w) {
       const R vh = sv * sh * std::cos(phi) + cv * ch;
       const R nl = 2 * vh * ch - cv;
       if (nl <= 0 || vh <= 0) return;
@@ -289,29 +332,16 @@ inline Dfg dfg(R mu, R alpha, bool separable, R tol, const GkRule& g) {
       w[0] = x * (1 - fc);
       w[1] = x * fc;
     };
-    std::vector<R> b = {0};
-    gradeTowards(b, phimax, 0, phimax, phimax);
-    auto r = adaptiveGk<2>(inner, b, 1e-3L * tol, 1e-16L, g);
-    inner_evals += r.evals;
-    inner_ok = inner_ok && r.converged;
-    o = r.value;
+    return std::make_pair(reflectionPhiMax(cv, sv, ch, sh), inner);
   };
-  std::vector<R> b = {0, th2};
-  for (int k = -8; k < 60; ++k) {  // the D peak: theta_h ~ alpha
-    const R x = std::ldexp(alpha, k);
-    if (x >= th2) break;
-    b.push_back(x);
-  }
-  if (th1 > 0 && th1 < th2) gradeTowards(b, th1, 0, th2);
-  gradeTowards(b, th2, 0, th2);
-  auto r = adaptiveGk<2>(outer, b, tol, 0, g);
+  auto r = overHalfVectors<2>(ggxBreaks(alpha, th1, th2), make, tol, g);
   Dfg d;
   d.A = r.value[0];
   d.B = r.value[1];
   d.E = d.A + d.B;
   d.error = r.error;
-  d.evals = r.evals + inner_evals;
-  d.converged = r.converged && inner_ok;
+  d.evals = r.evals;
+  d.converged = r.converged;
   return d;
 }
 
@@ -445,6 +475,119 @@ inline Norm normalization(R alpha, R theta_s, R softmin_s, R tol, const GkRule& 
   n.p_rep = pRep(alpha, theta_s, softmin_s, tol, g, n.error_rep, n.converged);
   n.N = n.p_true / n.p_rep;
   return n;
+}
+
+// ---------------------------------------------------------------- sheen
+// Charlie D (Estevez and Kulla 2017) from theta_h.
+inline R charlieD(R sh, R alpha) {
+  return (2 + 1 / alpha) * std::pow(sh, 1 / alpha) / (2 * kPi);
+}
+
+// E_sheen = int dh D(h) (n.l)(v.h) / (n.l + n.v - (n.l)(n.v)) over n.l > 0 (dl = 4 (v.h) dh).
+inline Result<1> sheen(R mu, R alpha, R tol, const GkRule& g) {
+  const R cv = mu, sv = std::sqrt(std::max<R>(0, 1 - mu * mu));
+  const R theta_v = std::acos(mu);
+  const R th1 = std::max<R>(0, kPi / 4 - theta_v / 2);
+  const R th2 = std::min<R>(kPi / 2, kPi / 4 + theta_v / 2);
+  auto make = [&](R th) {
+    const R ch = std::cos(th), sh = std::sin(th);
+    const R dsin = charlieD(sh, alpha) * sh;
+    auto inner = [=](R phi, Vec<1>& w) {
+      const R vh = sv * sh * std::cos(phi) + cv * ch;
+      const R nl = 2 * vh * ch - cv;
+      if (nl <= 0 || vh <= 0) return;
+      w[0] = 2 * dsin * nl * vh / (nl + cv - nl * cv);  // x2: phi in [0, pi]
+    };
+    return std::make_pair(reflectionPhiMax(cv, sv, ch, sh), inner);
+  };
+  std::vector<R> b = {0, th2};
+  if (th1 > 0 && th1 < th2) gradeTowards(b, th1, 0, th2);
+  gradeTowards(b, th2, 0, th2, th2);
+  return overHalfVectors<1>(b, make, tol, g);
+}
+
+// ---------------------------------------------------------------- dielectric
+// Exact unpolarised Fresnel, relative index eta, incidence cosine c (Born and Wolf).
+inline R fresnel(R c, R eta) {
+  const R st2 = (1 - c * c) / (eta * eta);
+  if (st2 >= 1) return 1;
+  const R ct = std::sqrt(1 - st2);
+  const R rs = (c - eta * ct) / (c + eta * ct), rp = (eta * c - ct) / (eta * c + ct);
+  return (rs * rs + rp * rp) / 2;
+}
+// Exact Smith G1 = 1 / (1 + Lambda) (the separable form multiplies two).
+inline R g1Smith(R c, R alpha) {
+  return 1 / (1 + lambda(c, alpha));
+}
+enum class Vis { Correlated, Separable };
+inline R g2Vis(R nl, R nv, R alpha, Vis vis) {
+  if (nl <= 0 || nv <= 0) return 0;
+  if (vis == Vis::Separable) return g1Smith(nl, alpha) * g1Smith(nv, alpha);
+  return 1 / (1 + lambda(nv, alpha) + lambda(nl, alpha));
+}
+
+struct Dielectric {
+  R refl = 0, trans = 0, error = 0;
+  uint64_t evals = 0;
+  bool converged = true;
+};
+
+// E_refl and E_trans (flux) at mu in (0, 1], alpha > 0, eta > 1, over (theta_h, phi):
+//   E_refl  = int D G2(v, l_r) F(v.h) (v.h) / (n.v) dh over n.l_r > 0,
+//   E_trans = int D G2(v, l_t) (1 - F(v.h)) (v.h) / (n.v) dh over v.h > 0 (n.l_t < 0 then).
+inline Dielectric dielectric(R mu, R alpha, R eta, Vis vis, R tol, const GkRule& g) {
+  const R cv = mu, sv = std::sqrt(std::max<R>(0, 1 - mu * mu));
+  const R theta_v = std::acos(mu);
+  Dielectric out;
+  for (int lobe = 0; lobe < 2; ++lobe) {
+    const R thA =
+        lobe == 0 ? std::max<R>(0, kPi / 4 - theta_v / 2) : std::max<R>(0, kPi / 2 - theta_v);
+    const R thB = lobe == 0 ? std::min<R>(kPi / 2, kPi / 4 + theta_v / 2) : kPi / 2;
+    auto make = [&](R th) {
+      const R ch = std::cos(th), sh = std::sin(th);
+      R phimax = kPi;  // transmission: v.h > 0 where cos(phi) > -cot(theta_v) cot(theta_h)
+      if (lobe == 0) {
+        phimax = reflectionPhiMax(cv, sv, ch, sh);
+      } else if (th > thA && sv * sh > 0) {
+        const R c0 = -cv * ch / (sv * sh);
+        phimax = c0 <= -1 ? kPi : (c0 >= 1 ? 0 : std::acos(c0));
+      }
+      const R dsin = ggxD(ch, sh, alpha) * sh;
+      auto inner = [=](R phi, Vec<1>& w) {
+        const R vh = sv * sh * std::cos(phi) + cv * ch;
+        if (vh <= 0) return;
+        const R F = fresnel(vh, eta);
+        if (lobe == 0) {
+          const R nl = 2 * vh * ch - cv;
+          if (nl <= 0) return;
+          w[0] = 2 * dsin * g2Vis(nl, cv, alpha, vis) * F * vh / cv;
+        } else {
+          const R ct = std::sqrt(1 - (1 - vh * vh) / (eta * eta));
+          const R nlt = cv / eta + (ct - vh / eta) * ch;  // -(n.l_t)
+          w[0] = 2 * dsin * g2Vis(nlt, cv, alpha, vis) * (1 - F) * vh / cv;
+        }
+      };
+      return std::make_pair(phimax, inner);
+    };
+    auto r = overHalfVectors<1>(ggxBreaks(alpha, thA, thB), make, tol, g);
+    (lobe == 0 ? out.refl : out.trans) = r.value[0];
+    out.error = std::max(out.error, r.error);
+    out.evals += r.evals;
+    out.converged = out.converged && r.converged;
+  }
+  return out;
+}
+
+// F_avg = 2 int_0^{pi/2} F(cos theta) cos theta sin theta dtheta, graded towards the critical
+// angle (eta < 1) and grazing incidence.
+inline Result<1> fresnelAverage(R eta, R tol, const GkRule& g) {
+  auto f = [&](R th, Vec<1>& o) {
+    o[0] = 2 * fresnel(std::cos(th), eta) * std::cos(th) * std::sin(th);
+  };
+  std::vector<R> b = {0, kPi / 2};
+  if (eta < 1) gradeTowards(b, std::asin(eta), 0, kPi / 2);
+  gradeTowards(b, kPi / 2, 0, kPi / 2);
+  return adaptiveGk<1>(f, b, tol, 0, g);
 }
 
 // ---------------------------------------------------------------- zh, exactly

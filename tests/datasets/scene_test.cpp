@@ -183,3 +183,73 @@ TEST(Scene, SceneFilesAreReadWithTheCheckedParser) {
   EXPECT_NE(deep.error().find("nested deeper than"), std::string::npos) << deep.error();
   fs::remove_all(dir);
 }
+
+// A table's inputs are the union of its outputs' (mu, r, eta, in that order); the outputs over
+// eta need the exact dielectric Fresnel, the 3-D albedo needs eta >= 1, and E_sheen is refused
+// where it is infinite.
+TEST(Scene, InputsFollowTheOutputs) {
+  auto s = parseScene(json::parse(R"({
+    "material": {"fresnel": "dielectric"},
+    "outputs": ["E_dielectric", "F_avg"],
+    "grid": {"mu": {"count": 4}, "r": {"count": 3}, "eta": {"count": 2}}})"));
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->inputNames(), (std::vector<std::string>{"mu", "r", "eta"}));
+  EXPECT_EQ(s->rows(), 24u);
+  EXPECT_EQ(s->grid[2].values, (std::vector<double>{1.0, 3.0}));  // eta's default range
+  EXPECT_TRUE(s->needs(Effect::Dielectric));
+  EXPECT_FALSE(s->needs(Effect::Specular));
+  // canonical form names the transmission convention, and round-trips
+  EXPECT_EQ(toJson(*s)["material"]["transmission"], "flux");
+  auto again = parseScene(toJson(*s));
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(toJson(*again), toJson(*s));
+
+  auto f = parseScene(json::parse(R"({"material": {"fresnel": "dielectric"}, "outputs": ["F_avg"],
+                                      "grid": {"eta": {"values": [0.5, 1, 2]}}})"));
+  ASSERT_TRUE(f) << f.error();
+  EXPECT_EQ(f->inputNames(), (std::vector<std::string>{"eta"}));
+
+  auto d = parseScene(json::parse(R"({"outputs": ["E_sheen", "E_burley", "E_oren_nayar"],
+                                      "grid": {"mu": {"count": 3, "range": [0.1, 1]},
+                                               "r": {"count": 3}}})"));
+  ASSERT_TRUE(d) << d.error();
+  EXPECT_TRUE(d->needs(Effect::Sheen));
+  EXPECT_TRUE(d->needs(Effect::DiffuseAlbedo));
+  EXPECT_FALSE(d->needs(Effect::Specular));
+  // an older scene keeps its canonical form (no transmission key): its cache key is unchanged
+  EXPECT_FALSE(toJson(*parseScene(dfgScene()))["material"].contains("transmission"));
+}
+
+TEST(Scene, NewEffectsNameTheirRequirements) {
+  EXPECT_NE(errorOf(json::parse(R"({"outputs": ["E_refl"],
+      "grid": {"mu": {"count": 2}, "r": {"count": 2}, "eta": {"count": 2}}})"))
+                .find("s.json: /material/fresnel: outputs over eta use the exact dielectric "
+                      "Fresnel; they need \"dielectric\""),
+            std::string::npos);
+  EXPECT_NE(errorOf(json::parse(R"({"material": {"fresnel": "dielectric"}, "outputs": ["E_trans"],
+      "grid": {"mu": {"count": 2}, "r": {"count": 2}, "eta": {"values": [0.8, 1.5]}}})"))
+                .find("/grid/eta: E_refl, E_trans and E_dielectric are defined for eta >= 1"),
+            std::string::npos);
+  EXPECT_NE(
+      errorOf(json::parse(R"({"material": {"fresnel": "dielectric"}, "outputs": ["F_avg"],
+      "grid": {"eta": {"values": [0.1]}}})"))
+          .find("/grid/eta: value 0.10000000000000001 outside the domain [0.20000000000000001, 5]"),
+      std::string::npos);
+  EXPECT_NE(errorOf(json::parse(R"({"outputs": ["E_sheen"],
+      "grid": {"mu": {"count": 3}, "r": {"count": 3}}})"))
+                .find("s.json: /grid: E_sheen diverges at mu = 0 with alpha = 0"),
+            std::string::npos);
+  EXPECT_NE(errorOf(json::parse(R"({"material": {"transmission": "energy"}, "outputs": ["E"],
+      "grid": {"mu": {"count": 2}, "r": {"count": 2}}})"))
+                .find("/material/transmission: must be one of \"flux\", \"radiance\""),
+            std::string::npos);
+  EXPECT_NE(errorOf(json::parse(R"({"material": {"fresnel": "dielectric"}, "outputs": ["A"],
+      "grid": {"mu": {"count": 2}, "r": {"count": 2}}})"))
+                .find("/material/fresnel: outputs \"A\"/\"B\" are the Fresnel split"),
+            std::string::npos);
+  // the grid names exactly the union of the outputs' inputs
+  EXPECT_NE(errorOf(json::parse(R"({"material": {"fresnel": "dielectric"}, "outputs": ["F_avg"],
+      "grid": {"mu": {"count": 2}, "eta": {"count": 2}}})"))
+                .find("/grid/mu: not an input of the requested outputs (inputs: eta)"),
+            std::string::npos);
+}

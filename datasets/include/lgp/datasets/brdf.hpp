@@ -12,21 +12,27 @@
 namespace lgp::datasets {
 
 enum class Ndf { Ggx };
-enum class Visibility { SmithCorrelated, SchlickSmith };
-enum class FresnelModel { None, Schlick };
+enum class Visibility { SmithCorrelated, SchlickSmith, SmithSeparable };
+enum class FresnelModel { None, Schlick, Dielectric };
 enum class RoughnessMap { Perceptual, Linear };  // alpha = r^2 | alpha = r
 enum class Diffuse { Disney, Lambert };
+// How the transmitted lobe of a dielectric is counted (docs/tables.md, "dielectric"): as the
+// transmitted flux (smooth limit 1 - F; what energy compensation needs), or as radiance seen
+// from outside (Walter et al. 2007's BTDF with the outer index 1; smooth limit (1 - F) / eta^2).
+enum class Transmission { Flux, Radiance };
 
 const char* toString(Ndf v);
 const char* toString(Visibility v);
 const char* toString(FresnelModel v);
 const char* toString(RoughnessMap v);
 const char* toString(Diffuse v);
+const char* toString(Transmission v);
 bool fromString(const std::string& s, Ndf& v);
 bool fromString(const std::string& s, Visibility& v);
 bool fromString(const std::string& s, FresnelModel& v);
 bool fromString(const std::string& s, RoughnessMap& v);
 bool fromString(const std::string& s, Diffuse& v);
+bool fromString(const std::string& s, Transmission& v);
 
 struct Material {
   Ndf ndf = Ndf::Ggx;                                   // microfacet distribution
@@ -35,6 +41,7 @@ struct Material {
   double f90 = 1.0;                                     // Schlick grazing reflectance
   RoughnessMap roughness = RoughnessMap::Perceptual;    // r -> alpha
   Diffuse diffuse = Diffuse::Disney;                    // for the zh generator
+  Transmission transmission = Transmission::Flux;       // dielectric E_trans convention
 
   double alpha(double r) const { return roughness == RoughnessMap::Perceptual ? r * r : r; }
 };
@@ -60,6 +67,9 @@ inline double ggxD(double nh, double sin2h, double alpha) {
 //    Lambda(x) = (sqrt(alpha^2 + (1 - alpha^2) x^2) / x - 1) / 2, which rearranges to
 //    G2 / nv = 2 nl / (nv S(nl) + nl S(nv)),  S(x) = sqrt(alpha^2 + (1 - alpha^2) x^2).
 //  Schlick-Smith separable: G2 = G1(l) G1(v), G1(x) = x / (x (1 - k) + k), k = alpha / 2.
+//  Smith separable (uncorrelated; Walter et al. 2007): G2 = G1(l) G1(v) with the exact
+//    G1(x) = 2 x / (x + S(x)), so G2 / nv = 2 G1(l) / (nv + S(nv)).
+// A transmitted direction passes |n.l| (Smith masking of the lower side).
 inline double g2OverNv(double nl, double nv, double alpha, Visibility vis) {
   if (nl <= 0.0) return 0.0;
   const double a2 = alpha * alpha;
@@ -67,6 +77,11 @@ inline double g2OverNv(double nl, double nv, double alpha, Visibility vis) {
     const double sl = std::sqrt(a2 + (1.0 - a2) * nl * nl);
     const double sv = std::sqrt(a2 + (1.0 - a2) * nv * nv);
     return 2.0 * nl / (nv * sl + nl * sv);
+  }
+  if (vis == Visibility::SmithSeparable) {
+    const double sl = std::sqrt(a2 + (1.0 - a2) * nl * nl);
+    const double sv = std::sqrt(a2 + (1.0 - a2) * nv * nv);
+    return 4.0 * nl / ((nl + sl) * (nv + sv));
   }
   const double k = 0.5 * alpha;
   const double g1l = nl / (nl * (1.0 - k) + k);
@@ -78,6 +93,20 @@ inline double schlickWeight(double vh) {
   const double m = std::clamp(1.0 - vh, 0.0, 1.0);
   const double m2 = m * m;
   return m2 * m2 * m;
+}
+
+// Exact unpolarised Fresnel reflectance of a smooth dielectric interface (Born and Wolf 1999),
+// for light arriving at cosine c >= 0 to the interface normal from the side of index 1 into
+// relative index eta = n_inside / n_outside (eta < 1: the denser medium is outside; total
+// internal reflection gives 1). F = (r_s^2 + r_p^2) / 2 with cos_t = sqrt(1 - (1 - c^2) / eta^2).
+inline double fresnelDielectric(double c, double eta) {
+  c = std::clamp(c, 0.0, 1.0);
+  const double ct2 = 1.0 - (1.0 - c * c) / (eta * eta);
+  if (ct2 <= 0.0) return 1.0;
+  const double ct = std::sqrt(ct2);
+  const double rs = (c - eta * ct) / (c + eta * ct);
+  const double rp = (eta * c - ct) / (eta * c + ct);
+  return 0.5 * (rs * rs + rp * rp);
 }
 
 // f_spec(l, v) with F = 1: D G2 / (4 nl nv). Zero below the horizon. sin2h = 1 - (n.h)^2,

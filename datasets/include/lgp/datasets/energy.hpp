@@ -11,7 +11,18 @@
 // nodes.
 //   F_avg       = 2 integral_0^1 F(mu) mu dmu = F0 + (F90 - F0) / 21 for Schlick (closed form,
 //                 used as a check of the quadrature).
+//
+// The multiple-scattering factors built from E and E_avg:
+//   ms_turquin  = (1 - E) / E: Turquin 2019 ("Practical multiple scattering compensation for
+//                 microfacet models") scales the single-scattering lobe by 1 + F0 (1 - E) / E.
+//   ms_lobe     = (1 - E(mu)) / sqrt(pi (1 - E_avg)): Kulla and Conty's lobe
+//                 f_ms(l, v) = (1 - E(n.l))(1 - E(n.v)) / (pi (1 - E_avg)) is
+//                 ms_lobe(n.l) ms_lobe(n.v), and integral_H f_ms (n.l) dl = 1 - E(n.v).
+// Errors are propagated to first order; alpha = 0 (E = E_avg = 1) gives the limits 0.
 #pragma once
+
+#include <cmath>
+#include <numbers>
 
 #include "lgp/datasets/brdf.hpp"
 #include "lgp/datasets/integrator.hpp"
@@ -32,6 +43,21 @@ EavgValue eAvg(double alpha, Visibility vis, const IntegratorOptions& opt,
 double fresnelAverageNumeric(double f0, double f90, int n = 8);
 inline double fresnelAverageClosed(double f0, double f90) {
   return f0 + (f90 - f0) / 21.0;
+}
+
+struct DerivedValue {
+  double value = 0, error = 0;
+};
+inline DerivedValue msTurquin(double E, double err_E) {
+  if (!(E > 0.0)) return {0.0, 0.0};
+  return {(1.0 - E) / E, err_E / (E * E)};
+}
+inline DerivedValue msLobe(double E, double err_E, double E_avg, double err_avg) {
+  const double d = 1.0 - E_avg;
+  if (!(d > 0.0)) return {0.0, 0.0};  // alpha = 0: E = E_avg = 1
+  const double s = std::sqrt(std::numbers::pi * d);
+  const double v = (1.0 - E) / s;
+  return {v, err_E / s + 0.5 * std::abs(v) / d * err_avg};
 }
 
 }  // namespace lgp::datasets

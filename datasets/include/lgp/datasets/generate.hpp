@@ -1,9 +1,9 @@
 // Table generation from a scene, the lgp-table/1 JSON of a generated table, and the cache.
 //
 // generate() evaluates only what the scene's outputs need (Scene::needs), in parallel over
-// rows with OpenMP, and records per-entry error estimates, evaluation counts per effect and
-// the metadata (definition, scene, grid, integrator, sample counts, max estimated error,
-// generator version) that `lgp data` writes.
+// rows with OpenMP (one to three inputs, the first fastest), and records per-entry error estimates,
+// evaluation counts per effect and the metadata (definition, scene, grid, integrator, sample
+// counts, max estimated error, generator version) that `lgp data` writes.
 //
 // Cache: <dir>/<key>.lgpt, key = FNV-1a 64 of the canonical scene JSON plus kGeneratorVersion.
 // A cache file is "lgp-cache/1 <fnv64 hex of payload> <payload bytes>\n" followed by the

@@ -27,17 +27,21 @@ struct IntegratorOptions {
 // Integrand evaluations per effect. A scene that does not ask for an effect leaves its
 // counter at zero (the "simulate only what the scene calls for" contract, tested).
 struct Counters {
-  uint64_t specular = 0;   // microfacet BRDF evaluations (D, G2)
-  uint64_t fresnel = 0;    // of those, evaluations that also split by the Fresnel weight
-  uint64_t diffuse = 0;    // diffuse CBRDF evaluations (zh)
-  uint64_t rep_point = 0;  // of the specular ones, at a representative point (normalization)
+  uint64_t specular = 0;    // microfacet BRDF evaluations (D, G2)
+  uint64_t fresnel = 0;     // of those, evaluations that also split by the Fresnel weight
+  uint64_t diffuse = 0;     // diffuse evaluations (zh moments, diffuse albedo nodes)
+  uint64_t rep_point = 0;   // of the specular ones, at a representative point (normalization)
+  uint64_t sheen = 0;       // Charlie sheen evaluations
+  uint64_t dielectric = 0;  // GGX evaluations with the exact dielectric Fresnel (and F_avg)
   void add(const Counters& o) {
     specular += o.specular;
     fresnel += o.fresnel;
     diffuse += o.diffuse;
     rep_point += o.rep_point;
+    sheen += o.sheen;
+    dielectric += o.dielectric;
   }
-  uint64_t total() const { return specular + diffuse; }  // integrand evaluations
+  uint64_t total() const { return specular + diffuse + sheen + dielectric; }
 };
 
 }  // namespace lgp::datasets

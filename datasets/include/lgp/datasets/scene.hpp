@@ -5,12 +5,14 @@
 //   "name": "dfg-64",                              // optional, free text
 //   "material": {
 //     "ndf": "ggx",                                // only GGX
-//     "visibility": "smith-correlated",            // or "schlick-smith" (k = alpha / 2)
-//     "fresnel": {"model": "schlick", "f90": 1},   // or "none" (also accepts a plain string)
+//     "visibility": "smith-correlated",            // "schlick-smith" (k = alpha / 2) or
+//                                                  // "smith-separable" (exact G1(l) G1(v))
+//     "fresnel": {"model": "schlick", "f90": 1},   // "none", or "dielectric" (outputs over eta)
 //     "roughness": "perceptual",                   // alpha = r^2, or "linear" (alpha = r)
-//     "diffuse": "disney"                          // or "lambert" (zh outputs only)
+//     "diffuse": "disney",                         // or "lambert" (zh outputs only)
+//     "transmission": "flux"                       // or "radiance" (E_trans, E_dielectric)
 //   },
-//   "light": {"type": "environment"}               // dfg / energy / zh
+//   "light": {"type": "environment"}               // every output but N
 //         or {"type": "sphere", "size": "theta_s", // or "tan_half_theta_s" = tan(theta_s / 2)
 //             "range": [0, 1.2], "softmin_s": -3, "incidence": "normal"},
 //   "outputs": ["A", "B"],
@@ -23,11 +25,14 @@
 //                "gauss_order": 16, "qmc_points": 16384}
 // }
 //
-// Outputs and their inputs (all outputs of one scene must share the inputs):
-//   A, B (need fresnel "schlick"), E, one_minus_E, E_avg        inputs (mu, r)
-//   ZH0, ZH1, ZH2, ZH1_over_ZH0, ZH2_over_ZH0, beta            inputs (mu, r)
-//   N (needs a sphere light)                                   inputs (r, theta_s |
-//   tan_half_theta_s)
+// Outputs and their inputs (outputs.hpp; a table's inputs are the union over its outputs, in
+// the order mu, r, eta, and an output is repeated along the inputs it does not depend on):
+//   A, B (need fresnel "schlick"), E, one_minus_E, E_avg, ms_turquin, ms_lobe  inputs (mu, r)
+//   ZH0, ZH1, ZH2, ZH1_over_ZH0, ZH2_over_ZH0, beta                          inputs (mu, r)
+//   E_sheen, E_burley, E_oren_nayar                                          inputs (mu, r)
+//   F_dielectric (mu, eta), F_avg (eta), E_refl, E_trans, E_dielectric (mu, r, eta): fresnel
+//   "dielectric"; E_refl, E_trans and E_dielectric need eta >= 1
+//   N (needs a sphere light, alone)                  inputs (r, theta_s | tan_half_theta_s)
 // Rows: the Cartesian product of the grids, the first input varying fastest.
 // Limits: at most 100000 points per axis ("count") and kMaxSceneCells = 16,777,216 (2^24,
 // e.g. 4096 x 4096) rows in all, checked when the scene is parsed (the error names /grid);
@@ -44,6 +49,7 @@
 #include "lgp/core/status.hpp"
 #include "lgp/datasets/brdf.hpp"
 #include "lgp/datasets/integrator.hpp"
+#include "lgp/datasets/outputs.hpp"
 
 namespace lgp::datasets {
 
@@ -71,20 +77,20 @@ struct Accuracy {
   int qmc_points = 16384;  // qmc: points per shift (8 shifts)
 };
 
-enum class Effect { Specular, Fresnel, Energy, Diffuse, Normalization };
-
 struct Scene {
   std::string name;
   Material material;
   Light light;
   std::vector<std::string> outputs;  // in table order
-  std::vector<GridAxis> grid;        // in input order
+  std::vector<GridAxis> grid;        // in input order (one to three inputs)
   Accuracy accuracy;
 
   std::vector<std::string> inputNames() const;
   size_t rows() const;
   bool wants(const std::string& output) const;
   bool needs(Effect e) const;  // does any requested output need this effect?
+  // The grid axis of `input`, or nullptr.
+  const GridAxis* axis(const std::string& input) const;
 };
 
 inline constexpr size_t kMaxSceneCells = size_t{1} << 24;

@@ -1,4 +1,5 @@
-// zh: Disney-diffuse cosine-weighted BRDF in zonal harmonics (Burley 2012, "Physically-Based Shading at Disney").
+// zh: Disney-diffuse cosine-weighted BRDF in zonal harmonics (Burley 2012, "Physically-Based
+// Shading at Disney").
 //
 // CBRDF(l) = f_d(l, v) max(0, n.l), baseColor = 1, with r the Disney roughness used as is:
 //   f_d = (1/pi)(1 + (F_D90 - 1)(1 - n.l)^5)(1 + (F_D90 - 1)(1 - n.v)^5),

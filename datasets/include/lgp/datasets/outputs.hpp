@@ -1,0 +1,41 @@
+// The outputs a scene can ask for: one catalogue, in canonical order, with the inputs each
+// output depends on, the effect (the integral) it needs and the definition written into a
+// table's metadata. The conventions are in docs/tables.md.
+//
+// A table's inputs are the union of its outputs' inputs in the canonical order mu, r, eta; an
+// output that depends on fewer of them (E_avg on r, F_avg on eta) is repeated along the others.
+// N is the exception: its inputs (r and the light size) are shared with no other output.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace lgp::datasets {
+
+// The integrals behind the outputs ("simulate only the effects a scene calls for").
+enum class Effect {
+  Specular,       // GGX with F = 1: E and what is built from it (dfg, energy, normalization)
+  Fresnel,        // of those, the Schlick split A / B
+  Energy,         // terms built from E and E_avg (1 - E, E_avg, the multiple-scattering factors)
+  Diffuse,        // Disney diffuse in zonal harmonics
+  Normalization,  // the sphere light's representative point
+  Sheen,          // Charlie sheen with Neubelt-Pettineo visibility
+  DiffuseAlbedo,  // directional albedo of Burley and Oren-Nayar diffuse
+  Dielectric,     // exact dielectric Fresnel: F, F_avg, GGX reflection and transmission
+};
+
+struct OutputSpec {
+  std::string name;
+  std::vector<std::string> inputs;  // in canonical order; "size" stands for the light's input
+  Effect effect;
+  std::string definition;  // one line, for the table's meta
+};
+
+// Every output, in canonical order.
+const std::vector<OutputSpec>& outputCatalog();
+// The entry of `name`, or nullptr.
+const OutputSpec* findOutput(const std::string& name);
+// The canonical order of the surface inputs.
+const std::vector<std::string>& canonicalInputs();
+
+}  // namespace lgp::datasets
