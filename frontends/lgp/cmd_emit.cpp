@@ -150,13 +150,10 @@ lgp::Expected<size_t> pickMember(const cxxopts::ParseResult& args, const nlohman
   return lgp::emit::selectMember(front, sel);
 }
 
-// The run's own table, found from the front (its config, or --data).
-lgp::Expected<lgp::Table> runTable(const cxxopts::ParseResult& args, const nlohmann::json& front,
-                                   const std::string& path, const std::string& hint) {
-  auto cfg =
-      lgp::frontRunConfig(front, path, args.count("data") ? args["data"].as<std::string>() : "");
-  if (!cfg) return lgp::Status::error(path + ": " + cfg.error() + hint);
-  return lgp::cli::loadRunTable(*cfg);
+// The run's config, found from the front (its data next to the front, or --data).
+lgp::Expected<lgp::RunConfig> runConfig(const cxxopts::ParseResult& args,
+                                        const nlohmann::json& front, const std::string& path) {
+  return lgp::frontRunConfig(front, path, args.count("data") ? args["data"].as<std::string>() : "");
 }
 
 // --snap: the member's constants snapped to simple values on the run's table, in the front.
@@ -165,8 +162,7 @@ lgp::Status snapMember(const cxxopts::ParseResult& args, nlohmann::json& front,
   lgp::SnapOptions so;
   so.tolerance = args["tolerance"].as<double>();
   if (!(so.tolerance >= 0)) return lgp::Status::error("--tolerance: must be >= 0");
-  auto cfg =
-      lgp::frontRunConfig(front, path, args.count("data") ? args["data"].as<std::string>() : "");
+  auto cfg = runConfig(args, front, path);
   if (!cfg) return lgp::Status::error(path + ": " + cfg.error());
   auto t = lgp::cli::loadRunTable(*cfg);
   if (!t) return t.status();
@@ -199,7 +195,9 @@ lgp::Expected<std::optional<lgp::Table>> checkTable(const cxxopts::ParseResult& 
   std::optional<lgp::Table> table;
   if (args.count("verify") && !args.count("table")) {
     // The run's own table, as --snap finds it.
-    auto t = runTable(args, front, path, " (or give --table)");
+    auto cfg = runConfig(args, front, path);
+    if (!cfg) return lgp::Status::error(path + ": " + cfg.error() + " (or give --table)");
+    auto t = lgp::cli::loadRunTable(*cfg);
     if (!t) return t.status();
     table = std::move(*t);
   }
