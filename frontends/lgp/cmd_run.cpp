@@ -10,7 +10,6 @@
 #include <iostream>
 #include <optional>
 #include <sstream>
-#include <variant>
 
 #include "cli_args.hpp"
 #include "commands.hpp"
@@ -94,12 +93,6 @@ struct World {
     if (root()) std::fprintf(stderr, "error: %s\n", msg.c_str());
     return code;
   }
-};
-
-// An error of the run, with the exit status it ends with.
-struct Failure {
-  std::string message;
-  int code = 2;
 };
 
 // The config, read by rank 0 and sent to the others in an MPI run.
@@ -216,22 +209,23 @@ struct RunFlags {
 
 // The search of one process with one step (pipeline step 3): restored from the checkpoint
 // with --resume, else seeded and, with search.exhaustive, enumerated first.
-std::variant<std::unique_ptr<lgp::Search>, Failure> buildSearch(
-    lgp::RunConfig& cfg, lgp::Table table, const std::vector<lgp::NamedProgram>& seeds,
-    const RunFlags& flags, nlohmann::json& exhaustive) {
+lgp::Expected<std::unique_ptr<lgp::Search>> buildSearch(lgp::RunConfig& cfg, lgp::Table table,
+                                                        const std::vector<lgp::NamedProgram>& seeds,
+                                                        const RunFlags& flags,
+                                                        nlohmann::json& exhaustive) {
   lgp::Expected<nlohmann::json> ck = nlohmann::json();
   if (flags.resume) {
     ck = lgp::readCheckpointFile(cfg.output.checkpoint);
-    if (!ck) return Failure{ck.error()};
+    if (!ck) return ck.status();
     if (lgp::Search::adoptCheckpointIslands(cfg, *ck) && !flags.quiet)
       std::fprintf(stderr, "lgp: %d islands, as in the checkpoint\n", cfg.search.islands.count);
   }
   auto search = std::make_unique<lgp::Search>(cfg, std::move(table));
   if (flags.resume)
     if (auto st = search->restore(*ck); !st)
-      return Failure{cfg.output.checkpoint + ": " + st.message()};
+      return lgp::Status::error(cfg.output.checkpoint + ": " + st.message());
   auto start = lgp::cli::startSearch(*search, seeds, !flags.resume);
-  if (!start) return Failure{start.error()};
+  if (!start) return start.status();
   for (const auto& why : start->not_seeded)
     std::fprintf(stderr, "warning: /search/seed_references: not seeded: %s\n", why.c_str());
   exhaustive = std::move(start->exhaustive);
@@ -419,8 +413,8 @@ int runMain(int argc, char** argv) {
     g_two_step.store(stepped.get());
   } else if (!world.distributed()) {
     auto built = buildSearch(*cfg, std::move(*table), *seeds, flags, exhaustive);
-    if (auto* f = std::get_if<Failure>(&built)) return world.fail(f->message, f->code);
-    single = std::move(std::get<std::unique_ptr<lgp::Search>>(built));
+    if (!built) return world.fail(built.error(), 2);
+    single = std::move(*built);
     g_search.store(single.get());
   }
   std::signal(SIGINT, onSigint);
