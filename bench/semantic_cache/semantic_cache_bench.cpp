@@ -26,6 +26,7 @@
 #include "../bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/io/result.hpp"
+#include "lgp/io/table_file.hpp"
 #include "lgp/search/search.hpp"
 
 int main(int argc, char** argv) {

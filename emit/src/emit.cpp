@@ -366,8 +366,11 @@ Status EmitOptions::validate(Language lang) const {
   return Status::ok();
 }
 
-Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts) {
-  if (Status s = opts.validate(lang); !s) return s;
+namespace {
+
+// A program the emitter can walk: outputs, transforms and constants as the table says, and
+// every operand reading something that exists before it.
+Status checkEmitInput(const EmitInput& in) {
   const size_t k = in.program.outputs.size();
   const int ni = static_cast<int>(in.input_names.size());
   if (k == 0) return Status::error("program: has no outputs");
@@ -396,57 +399,46 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
     if (o >= in.program.code.size())
       return Status::error("program: output refers to opcode " + std::to_string(o) +
                            " which does not exist");
+  return Status::ok();
+}
 
-  Ctx ctx{lang, opts.precision, opts.exact_math};
-  // The front printer's DAG (formula.hpp), folded in the emitted precision.
-  SimplifyOptions so = formulaSimplifyOptions(in.domain);
-  so.precision = opts.precision;
-  so.pow_rewrites = opts.pow_rewrites;
-  so.domain_rewrites = opts.domain_rewrites;
-  Emitted out;
-  out.dag = simplify(buildDag(in.program, ni), so);
-  out.formula = printFormula(out.dag, in.input_names, in.output_names).text();
-  const Dag& d = out.dag;
-  const std::vector<Interval> iv = nodeIntervals(d, in.domain);
-
-  std::vector<std::string> params;
-  for (const auto& n : in.input_names) {
+// Identifiers for names from a table: sanitized, and made distinct by appending '_'.
+std::vector<std::string> identifiers(const std::vector<std::string>& names) {
+  std::vector<std::string> ids;
+  for (const auto& n : names) {
     std::string p = sanitizeIdentifier(n);
-    while (std::find(params.begin(), params.end(), p) != params.end()) p += "_";
-    params.push_back(p);
+    while (std::find(ids.begin(), ids.end(), p) != ids.end()) p += "_";
+    ids.push_back(p);
   }
-  std::vector<std::string> onames;
-  for (size_t j = 0; j < k; ++j) {
-    std::string p = sanitizeIdentifier(j < in.output_names.size() ? in.output_names[j]
-                                                                  : "y" + std::to_string(j));
-    while (std::find(onames.begin(), onames.end(), p) != onames.end()) p += "_";
-    onames.push_back(p);
+  return ids;
+}
+
+// The emitted function's outside: its parameters, its outputs' names and how they are
+// returned (a scalar, a vector, or a struct for C++ and for more than four outputs).
+struct Interface {
+  Language lang;
+  size_t k;
+  std::string T;  // the scalar type
+  bool use_struct;
+  std::string struct_name, ret_type;
+  std::vector<std::string> params, onames;
+
+  Interface(const EmitInput& in, const Ctx& ctx, Language l, const EmitOptions& opts)
+      : lang(l),
+        k(in.program.outputs.size()),
+        T(detail::scalarType(ctx)),
+        use_struct(k > 1 && (l == Language::Cpp || k > 4)),
+        struct_name(opts.function_name + "_result"),
+        ret_type(k == 1 ? T : (use_struct ? struct_name : vectorType(ctx, k))),
+        params(identifiers(in.input_names)) {
+    std::vector<std::string> outs;
+    for (size_t j = 0; j < k; ++j)
+      outs.push_back(j < in.output_names.size() ? in.output_names[j] : "y" + std::to_string(j));
+    onames = identifiers(outs);
   }
-  std::vector<TargetTransform> tr = in.transforms;
-  tr.resize(k, TargetTransform::None);
 
-  Renderer r(d, ctx, opts, iv, params);
-  std::vector<std::string> results;
-  for (size_t j = 0; j < k; ++j) results.push_back(r.output(d.outputs[j], tr[j]));
-
-  // Costs and piecewise count of what is emitted.
-  for (int t = 0; t < kNumCostTargets; ++t) {
-    const CostModel cm = CostModel::preset(static_cast<CostTarget>(t), in.domain);
-    out.cost[t] = cm.dagCost(d) + cm.transformCost(tr);
-  }
-  out.piecewise = countPiecewise(d);
-  for (int h = 0; h < static_cast<int>(Helper::Count); ++h)
-    if (r.helpers().test(h)) out.helpers.push_back(detail::helperName(static_cast<Helper>(h)));
-  out.raw_ops.assign(r.rawOps().begin(), r.rawOps().end());
-
-  // Signature and return.
-  const std::string T = detail::scalarType(ctx);
-  const bool cpp = lang == Language::Cpp;
-  const bool use_struct = k > 1 && (cpp || k > 4);
-  const std::string struct_name = opts.function_name + "_result";
-  const std::string ret_type = k == 1 ? T : (use_struct ? struct_name : vectorType(ctx, k));
   // The return statement for one value per output.
-  auto returnOf = [&](const std::vector<std::string>& values) -> std::string {
+  std::string returnOf(const std::vector<std::string>& values) const {
     std::string list;
     for (size_t j = 0; j < values.size(); ++j)
       list += (j ? ", " : "") + stripOuterParens(values[j]);
@@ -461,149 +453,220 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
         return "  " + struct_name + " lgp_r = {" + list + "};\n  return lgp_r;\n";
     }
     return "";
-  };
-  const std::string ret = returnOf(results);
+  }
+  // How a caller reads output j of the result ("" for a scalar).
+  std::string access(size_t j) const {
+    return k == 1 ? "" : use_struct ? "." + onames[j] : "." + std::string(1, "xyzw"[j]);
+  }
+  std::string signature(const std::string& name, const std::vector<uint8_t>& used) const {
+    const bool cpp = lang == Language::Cpp;
+    std::string sig = (cpp ? "inline " : "") + ret_type + " " + name + "(";
+    for (size_t i = 0; i < params.size(); ++i)
+      sig += (i ? ", " : "") + std::string(cpp && !used[i] ? "[[maybe_unused]] " : "") + T + " " +
+             params[i];
+    return sig + ")";
+  }
+  std::string structDef() const {
+    if (!use_struct) return "";
+    std::string def = "struct " + struct_name + " {";
+    for (size_t j = 0; j < k; ++j) def += " " + T + " " + onames[j] + ";";
+    return def + " };\n";
+  }
+};
+
+// The header comment's error lines: the front's metrics (float32 search, double reference)
+// and, with a table, the emitted code's own in its precision.
+Status errorLines(const EmitInput& in, const EmitOptions& opts, const Interface& f, const Dag& d,
+                  const std::vector<TargetTransform>& tr,
+                  const std::function<void(const std::string&)>& line) {
+  for (const char* kind : {"float32", "double"}) {
+    for (size_t j = 0; j < f.k; ++j) {
+      if (!in.output_metrics.is_array() || j >= in.output_metrics.size()) break;
+      const std::string m = metricsLine(in.output_metrics[j].value(kind, nlohmann::json()));
+      if (m.empty()) continue;
+      line(std::string(j == 0 ? (std::string(kind) == "float32" ? "Error (search, float32): "
+                                                                : "Error (double reference): ")
+                              : "                          ") +
+           f.onames[j] + " " + m);
+    }
+  }
+  if (opts.table) {
+    auto m = detail::dagMetrics(d, *opts.table, tr, opts.precision);
+    if (!m) return m.status();
+    const std::string first = "Error (this code, " + std::string(toString(opts.precision)) +
+                              " arithmetic, on the table): ";
+    for (size_t j = 0; j < f.k; ++j)
+      line((j == 0 ? first : std::string(first.size(), ' ')) + f.onames[j] + " " +
+           metricsLine((*m)[j]));
+  } else if (opts.precision == Precision::Half) {
+    line("Error in half precision: not measured (no table given)");
+  }
+  return Status::ok();
+}
+
+// The header comment's cost lines: the emitted DAG's cost per target (and the search's when
+// it differs), its piecewise operators, helpers and what --fast left unguarded.
+void costLines(const EmitInput& in, const EmitOptions& opts, const Emitted& out,
+               const std::function<void(const std::string&)>& line) {
+  const Dag& d = out.dag;
+  std::string cost;
+  for (int t = 0; t < kNumCostTargets; ++t)
+    cost += (t ? ", " : "") + std::string(kCostTargetNames[t]) + " " + fmtMetric(out.cost[t]);
+  line("Cost: " + cost);
+  if (in.cost_by_target.is_object()) {
+    std::string sc;
+    bool differs = false;
+    for (int t = 0; t < kNumCostTargets; ++t) {
+      const auto key = std::string(kCostTargetNames[t]);
+      if (!in.cost_by_target.contains(key) || !in.cost_by_target[key].is_number()) continue;
+      const double v = in.cost_by_target[key].get<double>();
+      differs = differs || std::fabs(v - out.cost[t]) > 1e-9;
+      sc += (sc.empty() ? "" : ", ") + key + " " + fmtMetric(v);
+    }
+    if (differs) line("      (as scored by the search: " + sc + ")");
+  }
+  std::string pw;
+  std::map<std::string, int> pw_ops;
+  for (const Node& n : d.nodes)
+    if (n.isOp() && opInfo(n.op).piecewise) ++pw_ops[std::string(opName(n.op))];
+  for (const auto& [nm, cnt] : pw_ops)
+    pw += (pw.empty() ? "" : ", ") + nm + (cnt > 1 ? " x" + std::to_string(cnt) : "");
+  line("Piecewise ops: " + std::to_string(out.piecewise) + (pw.empty() ? "" : " (" + pw + ")"));
+  if (!out.helpers.empty()) {
+    std::string hs;
+    for (const auto& h : out.helpers)
+      if (h != "lgp_vm") hs += (hs.empty() ? "" : ", ") + h;
+    line("Protected ops call exact-semantics helpers: " + hs);
+  }
+  bool any_protected = false;
+  for (const Node& n : d.nodes) any_protected = any_protected || (n.isOp() && isProtected(n.op));
+  if (opts.fast && !any_protected && out.raw_ops.empty())
+    line("--fast: no protected ops in this function");
+  else if (opts.fast)
+    line(out.raw_ops.empty() ? "--fast: no protected op could be proven unguarded on the domain"
+                             : "--fast: raw " +
+                                   [&] {
+                                     std::string s;
+                                     for (const auto& o : out.raw_ops)
+                                       s += (s.empty() ? "" : ", ") + o;
+                                     return s;
+                                   }() +
+                                   " (proven never to reach the protection on the domain)");
+}
+
+// The comment above the function: what it is, where it came from, how well and at what cost
+// it fits. Every line goes through commentText: names, paths and formulas come from tables
+// and configs written by others.
+Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts,
+                                    const Interface& f, const Emitted& out,
+                                    const std::vector<TargetTransform>& tr) {
+  std::string hdr;
+  auto line = [&](const std::string& s) { hdr += "// " + commentText(s) + "\n"; };
+  const Language lang = f.lang;
+  const int ni = static_cast<int>(f.params.size());
+  line(opts.function_name + ": generated by lgp emit (" + std::string(toString(lang)) + ", " +
+       std::string(toString(opts.precision)) + ")" +
+       (opts.source.empty() ? "" : " from " + opts.source) + ". Re-emit rather than edit.");
+  std::string dom;
+  for (int i = 0; i < ni; ++i) {
+    dom += (i ? ", " : "") + f.params[i];
+    if (i < static_cast<int>(in.domain.size()) && in.domain[i].finite())
+      dom += " in [" + formatFloat(static_cast<float>(in.domain[i].lo)) + ", " +
+             formatFloat(static_cast<float>(in.domain[i].hi)) + "]";
+  }
+  line("Formula: " + out.formula);
+  line("Fitted on: " +
+       (in.table_desc.empty() ? std::string("(table not recorded)") : in.table_desc) + "; domain " +
+       dom);
+  std::string outs;
+  for (size_t j = 0; j < f.k; ++j)
+    outs += (j ? ", " : "") + f.onames[j] +
+            (tr[j] == TargetTransform::None
+                 ? ""
+                 : " (fitted on " + std::string(toString(tr[j])) + ", inverse applied)");
+  line(std::string(f.k > 1 ? "Returns " + (f.use_struct ? f.struct_name : f.ret_type) + ": "
+                           : "Returns ") +
+       outs);
+  if (auto s = errorLines(in, opts, f, out.dag, tr, line); !s) return s;
+  costLines(in, opts, out, line);
+  for (const auto& l : opts.header_lines) line(l);
+  if (lang == Language::Glsl && opts.precision == Precision::Half)
+    line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
+  if (lang == Language::Cpp && opts.exact_math)
+    line(
+        "Exact math: bit-identical to the lgp float32 interpreter (compile with "
+        "-ffp-contract=off)");
+  return hdr;
+}
+
+}  // namespace
+
+Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts) {
+  if (Status s = opts.validate(lang); !s) return s;
+  if (Status s = checkEmitInput(in); !s) return s;
+  const size_t k = in.program.outputs.size();
+  const int ni = static_cast<int>(in.input_names.size());
+
+  Ctx ctx{lang, opts.precision, opts.exact_math};
+  // The front printer's DAG (formula.hpp), folded in the emitted precision.
+  SimplifyOptions so = formulaSimplifyOptions(in.domain);
+  so.precision = opts.precision;
+  so.pow_rewrites = opts.pow_rewrites;
+  so.domain_rewrites = opts.domain_rewrites;
+  Emitted out;
+  out.dag = simplify(buildDag(in.program, ni), so);
+  out.formula = printFormula(out.dag, in.input_names, in.output_names).text();
+  const Dag& d = out.dag;
+  const std::vector<Interval> iv = nodeIntervals(d, in.domain);
+  const Interface f(in, ctx, lang, opts);
+  std::vector<TargetTransform> tr = in.transforms;
+  tr.resize(k, TargetTransform::None);
+
+  Renderer r(d, ctx, opts, iv, f.params);
+  std::vector<std::string> results;
+  for (size_t j = 0; j < k; ++j) results.push_back(r.output(d.outputs[j], tr[j]));
+
+  // Costs and piecewise count of what is emitted.
+  for (int t = 0; t < kNumCostTargets; ++t) {
+    const CostModel cm = CostModel::preset(static_cast<CostTarget>(t), in.domain);
+    out.cost[t] = cm.dagCost(d) + cm.transformCost(tr);
+  }
+  out.piecewise = countPiecewise(d);
+  for (int h = 0; h < static_cast<int>(Helper::Count); ++h)
+    if (r.helpers().test(h)) out.helpers.push_back(detail::helperName(static_cast<Helper>(h)));
+  out.raw_ops.assign(r.rawOps().begin(), r.rawOps().end());
+
   out.function_name = opts.function_name;
   out.num_inputs = ni;
-  out.return_type = ret_type;
-  for (size_t j = 0; j < k; ++j)
-    out.output_access.push_back(k == 1       ? ""
-                                : use_struct ? "." + onames[j]
-                                             : "." + std::string(1, "xyzw"[j]));
+  out.return_type = f.ret_type;
+  for (size_t j = 0; j < k; ++j) out.output_access.push_back(f.access(j));
   std::vector<uint8_t> used(ni, 0);
   for (const Node& n : d.nodes)
     if (n.kind == Node::Kind::Var) used[n.index] = 1;
-  std::string sig = (cpp ? "inline " : "") + ret_type + " " + opts.function_name + "(";
-  for (int i = 0; i < ni; ++i)
-    sig += (i ? ", " : "") + std::string(cpp && !used[i] ? "[[maybe_unused]] " : "") + T + " " +
-           params[i];
-  sig += ")";
+  const std::string sig = f.signature(opts.function_name, used);
 
-  // Header comment.
   std::string hdr;
   if (opts.header) {
-    // Every header line goes through commentText: names, paths and formulas come from
-    // tables and configs written by others.
-    auto line = [&](const std::string& s) { hdr += "// " + commentText(s) + "\n"; };
-    line(opts.function_name + ": generated by lgp emit (" + std::string(toString(lang)) + ", " +
-         std::string(toString(opts.precision)) + ")" +
-         (opts.source.empty() ? "" : " from " + opts.source) + ". Re-emit rather than edit.");
-    std::string dom;
-    for (int i = 0; i < ni; ++i) {
-      dom += (i ? ", " : "") + params[i];
-      if (i < static_cast<int>(in.domain.size()) && in.domain[i].finite())
-        dom += " in [" + formatFloat(static_cast<float>(in.domain[i].lo)) + ", " +
-               formatFloat(static_cast<float>(in.domain[i].hi)) + "]";
-    }
-    line("Formula: " + out.formula);
-    line("Fitted on: " +
-         (in.table_desc.empty() ? std::string("(table not recorded)") : in.table_desc) +
-         "; domain " + dom);
-    std::string outs;
-    for (size_t j = 0; j < k; ++j)
-      outs += (j ? ", " : "") + onames[j] +
-              (tr[j] == TargetTransform::None
-                   ? ""
-                   : " (fitted on " + std::string(toString(tr[j])) + ", inverse applied)");
-    line(std::string(k > 1 ? "Returns " + (use_struct ? struct_name : ret_type) + ": "
-                           : "Returns ") +
-         outs);
-    for (const char* kind : {"float32", "double"}) {
-      for (size_t j = 0; j < k; ++j) {
-        if (!in.output_metrics.is_array() || j >= in.output_metrics.size()) break;
-        const std::string m = metricsLine(in.output_metrics[j].value(kind, nlohmann::json()));
-        if (m.empty()) continue;
-        line(std::string(j == 0 ? (std::string(kind) == "float32" ? "Error (search, float32): "
-                                                                  : "Error (double reference): ")
-                                : "                          ") +
-             onames[j] + " " + m);
-      }
-    }
-    if (opts.table) {
-      auto m = detail::dagMetrics(d, *opts.table, tr, opts.precision);
-      if (!m) return m.status();
-      const std::string first = "Error (this code, " + std::string(toString(opts.precision)) +
-                                " arithmetic, on the table): ";
-      for (size_t j = 0; j < k; ++j)
-        line((j == 0 ? first : std::string(first.size(), ' ')) + onames[j] + " " +
-             metricsLine((*m)[j]));
-    } else if (opts.precision == Precision::Half) {
-      line("Error in half precision: not measured (no table given)");
-    }
-    std::string cost;
-    for (int t = 0; t < kNumCostTargets; ++t)
-      cost += (t ? ", " : "") + std::string(kCostTargetNames[t]) + " " + fmtMetric(out.cost[t]);
-    line("Cost: " + cost);
-    if (in.cost_by_target.is_object()) {
-      std::string sc;
-      bool differs = false;
-      for (int t = 0; t < kNumCostTargets; ++t) {
-        const auto key = std::string(kCostTargetNames[t]);
-        if (!in.cost_by_target.contains(key) || !in.cost_by_target[key].is_number()) continue;
-        const double v = in.cost_by_target[key].get<double>();
-        differs = differs || std::fabs(v - out.cost[t]) > 1e-9;
-        sc += (sc.empty() ? "" : ", ") + key + " " + fmtMetric(v);
-      }
-      if (differs) line("      (as scored by the search: " + sc + ")");
-    }
-    std::string pw;
-    std::map<std::string, int> pw_ops;
-    for (const Node& n : d.nodes)
-      if (n.isOp() && opInfo(n.op).piecewise) ++pw_ops[std::string(opName(n.op))];
-    for (const auto& [nm, cnt] : pw_ops)
-      pw += (pw.empty() ? "" : ", ") + nm + (cnt > 1 ? " x" + std::to_string(cnt) : "");
-    line("Piecewise ops: " + std::to_string(out.piecewise) + (pw.empty() ? "" : " (" + pw + ")"));
-    if (!out.helpers.empty()) {
-      std::string hs;
-      for (const auto& h : out.helpers)
-        if (h != "lgp_vm") hs += (hs.empty() ? "" : ", ") + h;
-      line("Protected ops call exact-semantics helpers: " + hs);
-    }
-    bool any_protected = false;
-    for (const Node& n : d.nodes) any_protected = any_protected || (n.isOp() && isProtected(n.op));
-    if (opts.fast && !any_protected && out.raw_ops.empty())
-      line("--fast: no protected ops in this function");
-    else if (opts.fast)
-      line(out.raw_ops.empty() ? "--fast: no protected op could be proven unguarded on the domain"
-                               : "--fast: raw " +
-                                     [&] {
-                                       std::string s;
-                                       for (const auto& o : out.raw_ops)
-                                         s += (s.empty() ? "" : ", ") + o;
-                                       return s;
-                                     }() +
-                                     " (proven never to reach the protection on the domain)");
-    for (const auto& l : opts.header_lines) line(l);
-    if (lang == Language::Glsl && opts.precision == Precision::Half)
-      line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
-    if (cpp && opts.exact_math)
-      line(
-          "Exact math: bit-identical to the lgp float32 interpreter (compile with "
-          "-ffp-contract=off)");
+    auto h = headerComment(in, opts, f, out, tr);
+    if (!h) return h.status();
+    hdr = std::move(*h);
   }
-
-  std::string struct_def;
-  if (use_struct) {
-    struct_def = "struct " + struct_name + " {";
-    for (size_t j = 0; j < k; ++j) struct_def += " " + T + " " + onames[j] + ";";
-    struct_def += " };\n";
-  }
+  const std::string struct_def = f.structDef();
   std::string fn = hdr + struct_def;
-  fn += sig + " {\n" + r.body() + ret + "}\n";
+  fn += sig + " {\n" + r.body() + f.returnOf(results) + "}\n";
   out.function = fn;
   {
     // The I/O-only twin: the same signature returning the inputs the formula reads.
     std::vector<std::string> src, values;
     for (int i = 0; i < ni; ++i)
-      if (used[i]) src.push_back(params[i]);
+      if (used[i]) src.push_back(f.params[i]);
     if (src.empty()) src.push_back(detail::literal(0.0, ctx));
     for (size_t j = 0; j < k; ++j) values.push_back(src[j % src.size()]);
-    out.io_baseline =
-        (use_struct ? struct_def : std::string()) + sig + " {\n" + returnOf(values) + "}\n";
+    out.io_baseline = struct_def + sig + " {\n" + f.returnOf(values) + "}\n";
   }
 
   std::string code;
-  if (cpp && opts.includes) {
+  if (lang == Language::Cpp && opts.includes) {
     code += "#include <algorithm>\n#include <cmath>\n";
     if (r.helpers().test(static_cast<int>(Helper::Vm)))
       code += "#include <cstdint>\n#include <cstring>\n";

@@ -1,6 +1,7 @@
 #include "table_source.hpp"
 
-#include "lgp/search/search.hpp"
+#include "lgp/eval/objectives.hpp"
+#include "lgp/io/table_file.hpp"
 
 #if __has_include("lgp/datasets/generate.hpp")
 #include "lgp/datasets/generate.hpp"

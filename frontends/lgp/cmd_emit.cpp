@@ -6,6 +6,7 @@
 #include <cxxopts.hpp>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "cli_args.hpp"
 #include "commands.hpp"
@@ -67,8 +68,8 @@ int verifyVulkan(const lgp::emit::EmitInput& in, const lgp::Table& t, size_t mem
   return 0;
 }
 
-int emitMain(int argc, char** argv) {
-  cxxopts::Options opts(argv[0],
+cxxopts::Options emitOptions(const char* argv0) {
+  cxxopts::Options opts(argv0,
                         "Export a front member as an HLSL, GLSL or C++ function that computes "
                         "what the search scored (see emit/README.md).");
   opts.positional_help("front.json");
@@ -112,6 +113,120 @@ int emitMain(int argc, char** argv) {
       "o,out", "write to this file instead of stdout", cxxopts::value<std::string>())("h,help",
                                                                                       "this help");
   opts.parse_positional({"front"});
+  return opts;
+}
+
+// The emitter's options from the command line (--lang is checked by the caller).
+lgp::Expected<lgp::emit::EmitOptions> emitOptionsOf(const cxxopts::ParseResult& args,
+                                                    lgp::emit::Language lang) {
+  lgp::emit::EmitOptions eo;
+  eo.function_name = args["name"].as<std::string>();
+  const auto prec = lgp::emit::precisionFromString(args["precision"].as<std::string>());
+  if (!prec)
+    return lgp::Status::error("--precision: expected float, half or double (got '" +
+                              args["precision"].as<std::string>() + "')");
+  eo.precision = *prec;
+  eo.fast = args.count("fast") > 0;
+  eo.pow_rewrites = args.count("no-pow-rewrites") == 0;
+  eo.domain_rewrites = args.count("no-domain-rewrites") == 0;
+  eo.exact_math = args.count("exact-math") > 0;
+  eo.header = args.count("no-header") == 0;
+  eo.helpers = args.count("no-helpers") == 0;
+  if (auto s = eo.validate(lang); !s) return lgp::Status::error("--" + s.message());
+  return eo;
+}
+
+// The member --member, --max-error or --max-cost picks.
+lgp::Expected<size_t> pickMember(const cxxopts::ParseResult& args, const nlohmann::json& front) {
+  lgp::emit::MemberSelector sel;
+  if (args.count("member")) sel.index = args["member"].as<size_t>();
+  if (args.count("max-error")) sel.max_error = args["max-error"].as<double>();
+  if (args.count("max-cost")) sel.max_cost = args["max-cost"].as<double>();
+  if (args.count("cost-target")) {
+    sel.cost_target = args["cost-target"].as<std::string>();
+    if (!lgp::costTargetFromString(sel.cost_target))
+      return lgp::Status::error("--cost-target: unknown target '" + sel.cost_target + "'");
+  }
+  return lgp::emit::selectMember(front, sel);
+}
+
+// The run's config, found from the front (its data next to the front, or --data).
+lgp::Expected<lgp::RunConfig> runConfig(const cxxopts::ParseResult& args,
+                                        const nlohmann::json& front, const std::string& path) {
+  return lgp::frontRunConfig(front, path, args.count("data") ? args["data"].as<std::string>() : "");
+}
+
+// --snap: the member's constants snapped to simple values on the run's table, in the front.
+lgp::Status snapMember(const cxxopts::ParseResult& args, nlohmann::json& front,
+                       const std::string& path, size_t member) {
+  lgp::SnapOptions so;
+  so.tolerance = args["tolerance"].as<double>();
+  if (!(so.tolerance >= 0)) return lgp::Status::error("--tolerance: must be >= 0");
+  auto cfg = runConfig(args, front, path);
+  if (!cfg) return lgp::Status::error(path + ": " + cfg.error());
+  auto t = lgp::cli::loadRunTable(*cfg);
+  if (!t) return t.status();
+  auto sm = lgp::snapFrontMember(front, member, *cfg, *t, so);
+  if (!sm) return lgp::Status::error(path + ": " + sm.error());
+  front["members"][member] = *sm;  // emitted from the snapped program and metrics
+  const nlohmann::json& m = front["members"][member];
+  std::fprintf(stderr, "lgp emit: snapped %d constants (error %s -> %s)\n",
+               m["snap"]["constants"].get<int>(), m["snap"]["error_before"].dump().c_str(),
+               m["error"].dump().c_str());
+  return lgp::Status::ok();
+}
+
+void warnCancellation(const nlohmann::json& m, size_t member, double max_bits) {
+  if (!m.contains("cancellation") || !m["cancellation"].is_object()) return;
+  const double bits = m["cancellation"].value("bits_lost", 0.0);
+  if (bits > max_bits)
+    std::fprintf(stderr,
+                 "warning: member %zu loses %.1f of float32's 24 bits to cancellation (constants "
+                 "that cancel); its result is fragile on a GPU, with or without FMA contraction\n",
+                 member, bits);
+}
+
+// The table the code is measured (--table) or verified (--verify) on: --table, else for
+// --verify the run's own.
+lgp::Expected<std::optional<lgp::Table>> checkTable(const cxxopts::ParseResult& args,
+                                                    const nlohmann::json& front,
+                                                    const std::string& path,
+                                                    const lgp::emit::EmitInput& in) {
+  std::optional<lgp::Table> table;
+  if (args.count("verify") && !args.count("table")) {
+    // The run's own table, as --snap finds it.
+    auto cfg = runConfig(args, front, path);
+    if (!cfg) return lgp::Status::error(path + ": " + cfg.error() + " (or give --table)");
+    auto t = lgp::cli::loadRunTable(*cfg);
+    if (!t) return t.status();
+    table = std::move(*t);
+  }
+  if (args.count("table")) {
+    const std::string tp = args["table"].as<std::string>();
+    auto raw = lgp::readTableFile(tp);
+    if (!raw) return raw.status();
+    auto t = lgp::selectColumns(*raw, in.input_names, in.output_names, "", tp);
+    if (!t) return t.status();
+    table = std::move(*t);
+  }
+  return table;
+}
+
+// The code to --out, else to stdout.
+lgp::Status writeCode(const cxxopts::ParseResult& args, const std::string& code) {
+  if (args.count("out"))
+    // Through a temporary file, a device or pipe in place (writeTextAtomic): a failed write
+    // is an error and never leaves a truncated file.
+    return lgp::writeTextAtomic(code, args["out"].as<std::string>());
+  std::cout << code << std::flush;
+  if (!std::cout || std::fflush(stdout) != 0)
+    return lgp::Status::error("standard output: write failed (" +
+                              std::string(std::strerror(errno)) + ")");
+  return lgp::Status::ok();
+}
+
+int emitMain(int argc, char** argv) {
+  cxxopts::Options opts = emitOptions(argv[0]);
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "front",
                                     "no front file given (lgp emit front.json --lang hlsl)");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
@@ -124,102 +239,30 @@ int emitMain(int argc, char** argv) {
   if (!lang)
     return fail("--lang: expected hlsl, glsl or cpp (got '" + args["lang"].as<std::string>() +
                 "')");
-  lgp::emit::EmitOptions eo;
-  eo.function_name = args["name"].as<std::string>();
-  const auto prec = lgp::emit::precisionFromString(args["precision"].as<std::string>());
-  if (!prec)
-    return fail("--precision: expected float, half or double (got '" +
-                args["precision"].as<std::string>() + "')");
-  eo.precision = *prec;
-  eo.fast = args.count("fast") > 0;
-  eo.pow_rewrites = args.count("no-pow-rewrites") == 0;
-  eo.domain_rewrites = args.count("no-domain-rewrites") == 0;
-  eo.exact_math = args.count("exact-math") > 0;
-  eo.header = args.count("no-header") == 0;
-  eo.helpers = args.count("no-helpers") == 0;
-  if (auto s = eo.validate(*lang); !s) return fail("--" + s.message());
-
-  lgp::emit::MemberSelector sel;
-  if (args.count("member")) sel.index = args["member"].as<size_t>();
-  if (args.count("max-error")) sel.max_error = args["max-error"].as<double>();
-  if (args.count("max-cost")) sel.max_cost = args["max-cost"].as<double>();
-  if (args.count("cost-target")) {
-    sel.cost_target = args["cost-target"].as<std::string>();
-    if (!lgp::costTargetFromString(sel.cost_target))
-      return fail("--cost-target: unknown target '" + sel.cost_target + "'");
-  }
-  auto member = lgp::emit::selectMember(*front, sel);
+  auto eo = emitOptionsOf(args, *lang);
+  if (!eo) return fail(eo.error());
+  auto member = pickMember(args, *front);
   if (!member) return fail(member.error());
-
-  nlohmann::json m = (*front)["members"][*member];
-  if (args.count("snap")) {
-    lgp::SnapOptions so;
-    so.tolerance = args["tolerance"].as<double>();
-    if (!(so.tolerance >= 0)) return fail("--tolerance: must be >= 0");
-    auto cfg =
-        lgp::frontRunConfig(*front, path, args.count("data") ? args["data"].as<std::string>() : "");
-    if (!cfg) return fail(path + ": " + cfg.error());
-    auto t = lgp::cli::loadRunTable(*cfg);
-    if (!t) return fail(t.error());
-    auto sm = lgp::snapFrontMember(*front, *member, *cfg, *t, so);
-    if (!sm) return fail(path + ": " + sm.error());
-    m = *sm;
-    (*front)["members"][*member] = m;  // emitted from the snapped program and metrics
-    std::fprintf(stderr, "lgp emit: snapped %d constants (error %s -> %s)\n",
-                 m["snap"]["constants"].get<int>(), m["snap"]["error_before"].dump().c_str(),
-                 m["error"].dump().c_str());
-  }
-  if (m.contains("cancellation") && m["cancellation"].is_object()) {
-    const double bits = m["cancellation"].value("bits_lost", 0.0);
-    if (bits > args["cancel-bits"].as<double>())
-      std::fprintf(
-          stderr,
-          "warning: member %zu loses %.1f of float32's 24 bits to cancellation (constants "
-          "that cancel); its result is fragile on a GPU, with or without FMA contraction\n",
-          *member, bits);
-  }
+  if (args.count("snap"))
+    if (auto st = snapMember(args, *front, path, *member); !st) return fail(st.message());
+  warnCancellation((*front)["members"][*member], *member, args["cancel-bits"].as<double>());
 
   auto in = lgp::emit::emitInputFromFront(*front, *member);
   if (!in) return fail(path + ": " + in.error());
-  std::optional<lgp::Table> table;
   if (args.count("verify") && args["verify"].as<std::string>() != "vulkan")
     return fail("--verify: the only driver is 'vulkan' (got '" + args["verify"].as<std::string>() +
                 "')");
-  if (args.count("verify") && !args.count("table")) {
-    // The run's own table, as --snap finds it.
-    auto cfg =
-        lgp::frontRunConfig(*front, path, args.count("data") ? args["data"].as<std::string>() : "");
-    if (!cfg) return fail(path + ": " + cfg.error() + " (or give --table)");
-    auto t = lgp::cli::loadRunTable(*cfg);
-    if (!t) return fail(t.error());
-    table = std::move(*t);
-  }
-  if (args.count("table")) {
-    const std::string tp = args["table"].as<std::string>();
-    auto raw = lgp::readTableFile(tp);
-    if (!raw) return fail(raw.error());
-    auto t = lgp::selectColumns(*raw, in->input_names, in->output_names, "", tp);
-    if (!t) return fail(t.error());
-    table = std::move(*t);
-    eo.table = &*table;
-  }
-  eo.source = path + " member " + std::to_string(*member);
+  auto table = checkTable(args, *front, path, *in);
+  if (!table) return fail(table.error());
+  if (args.count("table")) eo->table = &**table;
+  eo->source = path + " member " + std::to_string(*member);
   // The code as emitted, compiled to AMD ISA: the header states what it costs.
-  auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, eo)
-                                    : lgp::emit::emitMeasured(*in, *lang, eo);
+  auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, *eo)
+                                    : lgp::emit::emitMeasured(*in, *lang, *eo);
   if (!e) return fail(e.error());
-  if (args.count("out")) {
-    // Through a temporary file, a device or pipe in place (writeTextAtomic): a failed write
-    // is an error and never leaves a truncated file.
-    if (auto st = lgp::writeTextAtomic(e->code, args["out"].as<std::string>()); !st)
-      return fail(st.message());
-  } else {
-    std::cout << e->code << std::flush;
-    if (!std::cout || std::fflush(stdout) != 0)
-      return fail("standard output: write failed (" + std::string(std::strerror(errno)) + ")");
-  }
+  if (auto st = writeCode(args, e->code); !st) return fail(st.message());
   if (args.count("verify"))
-    return verifyVulkan(*in, *table, *member, args["verify-ulp"].as<double>());
+    return verifyVulkan(*in, **table, *member, args["verify-ulp"].as<double>());
   return 0;
 }
 

@@ -128,11 +128,8 @@ int scoreEach(const std::vector<std::string>& texts, const std::string& name,
   return 0;
 }
 
-int scoreMain(int argc, char** argv) {
-  std::string expr_error;
-  std::vector<std::string> texts = takeExprs(argc, argv, expr_error);
-  if (!expr_error.empty()) return fail(expr_error);
-  cxxopts::Options opts(argv[0],
+cxxopts::Options scoreOptions(const char* argv0) {
+  cxxopts::Options opts(argv0,
                         "Score a formula on a table: metrics (float32 interpreter and double "
                         "reference) and cost under every target model. Grammar: emit/README.md.");
   opts.positional_help("table.{csv,json}");
@@ -162,79 +159,68 @@ int scoreMain(int argc, char** argv) {
       "gets \"failed\": why)")("json", "print the result as JSON (the fields of a front member)")(
       "h,help", "this help");
   opts.parse_positional({"table"});
-  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "table",
-                                    "no table given (lgp score table.csv --expr \"...\")");
-  if (const int* code = std::get_if<int>(&parsed)) return *code;
-  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
-  const bool each = args.count("each") > 0;
-  if (args.count("expr-file")) {
-    for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
-      // With --each a file holds many formulas, each within kMaxFormulaBytes (scoreFormula
-      // checks every one).
-      auto text = lgp::readInputFile(f, each ? kMaxEachFileBytes : lgp::emit::kMaxFormulaBytes);
-      if (!text) return fail("--expr-file: " + text.error());
-      if (!each) {
-        texts.push_back(std::move(*text));
-        continue;
-      }
-      std::stringstream lines(*text);
-      for (std::string line; std::getline(lines, line);)
-        if (line.find_first_not_of(" \t\r") != std::string::npos) texts.push_back(line);
+  return opts;
+}
+
+// The formulas of every --expr-file after those of --expr: with --each one per non-empty
+// line, else the whole file as one.
+lgp::Status readExprFiles(const cxxopts::ParseResult& args, bool each,
+                          std::vector<std::string>& texts) {
+  if (!args.count("expr-file")) return lgp::Status::ok();
+  for (const auto& f : args["expr-file"].as<std::vector<std::string>>()) {
+    // With --each a file holds many formulas, each within kMaxFormulaBytes (scoreFormula
+    // checks every one).
+    auto text = lgp::readInputFile(f, each ? kMaxEachFileBytes : lgp::emit::kMaxFormulaBytes);
+    if (!text) return lgp::Status::error("--expr-file: " + text.error());
+    if (!each) {
+      texts.push_back(std::move(*text));
+      continue;
     }
+    std::stringstream lines(*text);
+    for (std::string line; std::getline(lines, line);)
+      if (line.find_first_not_of(" \t\r") != std::string::npos) texts.push_back(line);
   }
-  if (texts.empty()) return fail("give the formula with --expr or --expr-file");
+  return lgp::Status::ok();
+}
 
-  const std::string tp = args["table"].as<std::string>();
-  auto raw = lgp::readTableFile(tp);
-  if (!raw) return fail(raw.error());
-  auto table = lgp::selectColumns(*raw, splitList(args["inputs"].as<std::string>()),
-                                  splitList(args["outputs"].as<std::string>()),
-                                  args["weights"].as<std::string>(), tp);
-  if (!table) return fail(table.error());
-
+lgp::Expected<std::map<std::string, std::string>> aliasesOf(const cxxopts::ParseResult& args) {
   std::map<std::string, std::string> aliases;
   if (args.count("alias"))
     for (const auto& a : args["alias"].as<std::vector<std::string>>()) {
       const auto eq = a.find('=');
       if (eq == std::string::npos || eq == 0 || eq + 1 == a.size())
-        return fail("--alias: expected NAME=INPUT (got '" + a + "')");
+        return lgp::Status::error("--alias: expected NAME=INPUT (got '" + a + "')");
       aliases[a.substr(0, eq)] = a.substr(eq + 1);
     }
+  return aliases;
+}
 
+lgp::Expected<lgp::emit::ScoreOptions> scoreOptionsOf(const cxxopts::ParseResult& args) {
   lgp::emit::ScoreOptions so;
   const auto metric = lgp::errorMetricFromString(args["error"].as<std::string>());
-  if (!metric) return fail("--error: unknown metric '" + args["error"].as<std::string>() + "'");
+  if (!metric)
+    return lgp::Status::error("--error: unknown metric '" + args["error"].as<std::string>() + "'");
   so.error.metric = *metric;
   const auto comb = lgp::outputCombineFromString(args["combine"].as<std::string>());
-  if (!comb) return fail("--combine: expected mean or max");
+  if (!comb) return lgp::Status::error("--combine: expected mean or max");
   so.error.combine = *comb;
   const auto target = lgp::costTargetFromString(args["cost-model"].as<std::string>());
   if (!target)
-    return fail("--cost-model: unknown target '" + args["cost-model"].as<std::string>() + "'");
+    return lgp::Status::error("--cost-model: unknown target '" +
+                              args["cost-model"].as<std::string>() + "'");
   so.cost = lgp::CostModel::preset(*target);
+  return so;
+}
 
-  const bool measure = !args.count("no-measure");
-  if (each)
-    return scoreEach(texts, args["name"].as<std::string>(), aliases, *table, so, measure,
-                     args.count("json") > 0);
-  auto r = lgp::emit::scoreFormula(args["name"].as<std::string>(), texts, aliases, *table, so);
-  if (!r) return fail(r.error());
-  auto& j = *r;
-  std::string measured_note;
-  if (measure) {
-    auto m = measureInto(j, *table);
-    if (!m) return fail(m.error());
-    measured_note = *m;
-  }
-  if (args.count("json")) {
-    std::cout << j.dump(2) << "\n";
-    return 0;
-  }
+// One scored formula as text: the table, the program, its metrics per output and path, its
+// error and costs.
+void printScore(nlohmann::json& j, const cxxopts::ParseResult& args, const lgp::Table& table,
+                const std::string& tp, const std::string& measured_note) {
   std::printf("%s on %s (%zu rows; inputs", j["name"].get<std::string>().c_str(), tp.c_str(),
-              table->rows());
-  for (const auto& n : table->input_names) std::printf(" %s", n.c_str());
+              table.rows());
+  for (const auto& n : table.input_names) std::printf(" %s", n.c_str());
   std::printf("; outputs");
-  for (const auto& n : table->output_names) std::printf(" %s", n.c_str());
+  for (const auto& n : table.output_names) std::printf(" %s", n.c_str());
   std::printf(")\n");
   std::printf("program: %d opcodes, %d piecewise, %zu constants\n", j["opcodes"].get<int>(),
               j["piecewise"].get<int>(), j["program"]["constants"].size());
@@ -279,6 +265,51 @@ int scoreMain(int argc, char** argv) {
     std::printf("%s\n", measured_note.c_str());
   }
   std::printf("discontinuity: %s\n", num(j["discontinuity"].get<double>()).c_str());
+}
+
+int scoreMain(int argc, char** argv) {
+  std::string expr_error;
+  std::vector<std::string> texts = takeExprs(argc, argv, expr_error);
+  if (!expr_error.empty()) return fail(expr_error);
+  cxxopts::Options opts = scoreOptions(argv[0]);
+  auto parsed = lgp::cli::parseArgs(opts, argc, argv, "table",
+                                    "no table given (lgp score table.csv --expr \"...\")");
+  if (const int* code = std::get_if<int>(&parsed)) return *code;
+  const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
+  const bool each = args.count("each") > 0;
+  if (auto st = readExprFiles(args, each, texts); !st) return fail(st.message());
+  if (texts.empty()) return fail("give the formula with --expr or --expr-file");
+
+  const std::string tp = args["table"].as<std::string>();
+  auto raw = lgp::readTableFile(tp);
+  if (!raw) return fail(raw.error());
+  auto table = lgp::selectColumns(*raw, splitList(args["inputs"].as<std::string>()),
+                                  splitList(args["outputs"].as<std::string>()),
+                                  args["weights"].as<std::string>(), tp);
+  if (!table) return fail(table.error());
+  auto aliases = aliasesOf(args);
+  if (!aliases) return fail(aliases.error());
+  auto so = scoreOptionsOf(args);
+  if (!so) return fail(so.error());
+
+  const bool measure = !args.count("no-measure");
+  if (each)
+    return scoreEach(texts, args["name"].as<std::string>(), *aliases, *table, *so, measure,
+                     args.count("json") > 0);
+  auto r = lgp::emit::scoreFormula(args["name"].as<std::string>(), texts, *aliases, *table, *so);
+  if (!r) return fail(r.error());
+  auto& j = *r;
+  std::string measured_note;
+  if (measure) {
+    auto m = measureInto(j, *table);
+    if (!m) return fail(m.error());
+    measured_note = *m;
+  }
+  if (args.count("json")) {
+    std::cout << j.dump(2) << "\n";
+    return 0;
+  }
+  printScore(j, args, *table, tp, measured_note);
   return 0;
 }
 

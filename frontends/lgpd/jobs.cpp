@@ -1,4 +1,6 @@
 #include "jobs.hpp"
+
+#include "job.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
@@ -17,7 +19,6 @@
 #include <system_error>
 #include <thread>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include "lgp/core/text_check.hpp"
@@ -35,24 +36,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp), as `lgp run` does; cached,
-// so a live snapshot measures only the members that are new since the last one.
-void addMeasuredCost([[maybe_unused]] const lgp::RunConfig& cfg, [[maybe_unused]] json& front) {
-#ifdef LGP_HAVE_EMIT
-  if (cfg.objectives.measured_cost.families.empty()) return;
-  lgp::emit::MeasureOptions mo;
-  mo.families = cfg.objectives.measured_cost.families;
-  lgp::emit::addMeasuredCost(front, mo);
-#endif
-}
-
 constexpr size_t kMaxNameLength = 120;
 constexpr size_t kTableCacheSize = 4;
 constexpr size_t kMaxScoredReferenceRuns = 256;  // runs whose scored references are kept
-
-double seconds(std::chrono::steady_clock::duration d) {
-  return std::chrono::duration<double>(d).count();
-}
 
 // Resolves a data path of a submission against the daemon's base dir.
 std::string absolutePath(const std::string& p, const fs::path& base) {
@@ -95,22 +81,6 @@ json bestPerObjective(const json& front) {
   }
   return best;
 }
-
-struct JobManager::Job {
-  std::string id;
-  std::thread thread;
-  std::atomic<bool> cancel{false};
-  std::atomic<bool> deleted{false};
-  std::atomic<bool> shutdown{false};
-  std::atomic<bool> finished{false};
-  std::mutex search_mutex;
-  lgp::Search* search = nullptr;  // valid while the job thread runs its search
-
-  void requestStop() {
-    std::lock_guard lock(search_mutex);
-    if (search) search->requestStop();
-  }
-};
 
 JobManager::JobManager(Store& store, DaemonConfig cfg) : store_(store), cfg_(std::move(cfg)) {
   if (cfg_.data_base_dir.empty()) cfg_.data_base_dir = fs::current_path();
@@ -537,47 +507,6 @@ bool JobManager::startJobThread(Job& job) {
   }
 }
 
-namespace {
-
-// Starts `n` - 1 threads (the job thread is the n-th) and joins them: a machine at its
-// thread or memory limit says so here, as a std::system_error, and the run fails with a
-// message. LGPD_TEST_THREAD_LIMIT=K (for tests) makes the K+1-th start fail the same way,
-// as a machine whose limit is K threads would.
-Status probeThreads(int n) {
-  int limit = -1;
-  if (const char* v = std::getenv("LGPD_TEST_THREAD_LIMIT")) limit = std::atoi(v);
-  std::vector<std::thread> started;
-  std::string why;
-  try {
-    for (int i = 1; i < n; ++i) {
-      if (limit >= 0 && i > limit)
-        throw std::system_error(EAGAIN, std::generic_category(), "thread limit reached");
-      started.emplace_back([] {});
-    }
-  } catch (const std::system_error& e) {
-    why = e.what();
-  }
-  for (auto& t : started) t.join();
-  if (why.empty()) return Status::ok();
-  return Status::error("cannot start the search's " + std::to_string(n) + " threads (started " +
-                       std::to_string(started.size() + 1) + "): " + why + "; lower search.threads");
-}
-
-RunCounters countersOf(const lgp::SearchProgress& p, const json& best) {
-  RunCounters c;
-  c.generation = p.generation;
-  c.evaluations = p.evaluations;
-  c.elapsed_s = p.elapsed_s;
-  c.evals_per_s = p.evals_per_s;
-  c.front_size = static_cast<int64_t>(p.front_size);
-  c.best_error = p.front_size ? p.best_error : std::numeric_limits<double>::quiet_NaN();
-  c.best = best;
-  c.stop_reason = p.stop_reason;
-  return c;
-}
-
-}  // namespace
-
 void JobManager::runJob(Job& job) {
   const std::string id = job.id;
   // The run's start (loading, references, seeds, the first generation) is counted in the
@@ -597,12 +526,8 @@ void JobManager::runJob(Job& job) {
   };
   // The search outlives the try block, so that a cancel never reaches a destroyed search.
   std::unique_ptr<lgp::Search> search;
-  auto detach = [&] {
-    std::lock_guard lock(job.search_mutex);
-    job.search = nullptr;
-  };
   auto fail = [&](const std::string& msg) {
-    detach();
+    job.attach(nullptr);
     spdlog::error("run {} failed: {}", id, msg);
     if (!job.deleted.load()) {
       auto s = store_.failRun(id, msg);
@@ -640,461 +565,18 @@ void JobManager::runJob(Job& job) {
       if (auto s = checkDataPaths(*cfg); !s) return fail(s.message());
       if (auto s = checkDataFiles(*cfg); !s) return fail(s.message());
     }
-    if (cfg->mpi.np > 0) {
-      auto s = runMpiJob(job, run, *cfg, [&] { endStart(); });
-      if (!s) return fail(s.message());
-      return finish();
-    }
-    spdlog::info("run {}: loading its table", id);
-    auto loaded = lgp::cli::loadRunTable(*cfg);
-    if (!loaded) return fail(loaded.error());
-    auto table = std::make_shared<const lgp::Table>(std::move(*loaded));
-    publishTable(id, table);
-
-    // The references, scored once on the run's table and stored with every front.
-    json scored_refs;
-#ifdef LGP_HAVE_EMIT
-    if (cfg->references.is_array() && !cfg->references.empty()) {
-      spdlog::info("run {}: scoring {} reference(s)", id, cfg->references.size());
-      scored_refs = lgp::emit::scoreReferences(*cfg, *table);
-    }
-#endif
-    // The search's threads: capped at the cores lgpd may use (lgp::Search does so), and
-    // started once here, so that a machine that cannot give them fails the run with a
-    // message rather than in the OpenMP runtime, which ends the process.
-    const int cores = lgp::Search::maxThreads();
-    if (cfg->search.threads > cores)
-      spdlog::warn("run {}: search.threads {} capped at the {} cores lgpd may use", id,
-                   cfg->search.threads, cores);
-    const int threads = cfg->search.threads > 0 ? std::min(cfg->search.threads, cores) : cores;
-    if (auto s = probeThreads(threads); !s) return fail(s.message());
-    search = std::make_unique<lgp::Search>(*cfg, *table);
-    bool resumed = false;
-    auto ckpt = store_.loadCheckpoint(id);
-    if (!ckpt) {
-      spdlog::warn("run {}: {}; starting from scratch", id, ckpt.error());
-    } else if (*ckpt) {
-      auto s = search->restore(**ckpt);
-      if (s) {
-        resumed = true;
-      } else {
-        spdlog::warn("run {}: checkpoint rejected ({}); starting from scratch", id, s.message());
-        search = std::make_unique<lgp::Search>(*cfg, *table);
-      }
-    }
-#ifdef LGP_HAVE_EMIT
-    if (auto st = lgp::emit::enableMeasuredCostInSearch(*search); !st) return fail(st.message());
-#else
-    if (cfg->objectives.measured_cost.in_search)
-      return fail("/objectives/measured_cost/in_search: this lgpd was built without lgp::emit");
-#endif
-    if (!resumed) {
-#ifdef LGP_HAVE_EMIT
-      if (cfg->search.seed_references) {
-        spdlog::info("run {}: seeding from its references", id);
-        auto progs = lgp::emit::referencePrograms(*cfg, *table);
-        if (!progs) return fail(progs.error());
-        for (const auto& why : search->addSeeds(*progs))
-          spdlog::warn("run {}: not seeded: {}", id, why);
-      }
-#endif
-      search->initialize();
-    }
-    {
-      std::lock_guard lock(job.search_mutex);
-      job.search = search.get();
-    }
-    if (job.cancel.load() || job.deleted.load()) search->requestStop();
-    if (auto s = store_.markStarted(id, resumed, search->progress().generation); !s)
-      return fail(s.message());
-    spdlog::info("run {} {} at generation {}", id, resumed ? "resumed" : "started",
-                 search->progress().generation);
-
-    using clock = std::chrono::steady_clock;
-    auto last_ckpt = clock::now(), last_progress = clock::now(), last_front = clock::now();
-    json best = json::object();
-    auto snapshot = [&]() {
-      json front = lgp::frontToJson(*search, search->front());
-      if (!scored_refs.is_null()) front["references"] = scored_refs;
-      addMeasuredCost(*cfg, front);
-      best = bestPerObjective(front);
-      return front;
-    };
-    while (!search->done() && !job.shutdown.load()) {
-      search->step();
-      endStart();  // the start is through: table, references, seeds and a first generation
-      if (job.deleted.load()) break;
-      auto now = clock::now();
-      if (seconds(now - last_ckpt) >= cfg_.checkpoint_interval_s) {
-        json front = snapshot();
-        auto s = store_.writeCheckpoint(id, search->checkpoint(), &front,
-                                        countersOf(search->progress(), best));
-        if (!s) return fail("cannot store the run's checkpoint: " + s.message());
-        last_ckpt = last_progress = last_front = now;
-      } else if (seconds(now - last_front) >= cfg_.front_interval_s) {
-        json front = snapshot();
-        auto s = store_.writeFrontSnapshot(id, front, countersOf(search->progress(), best));
-        if (!s) return fail("cannot store the run's front: " + s.message());
-        last_front = last_progress = now;
-      } else if (seconds(now - last_progress) >= cfg_.progress_interval_s) {
-        auto s = store_.updateProgress(id, countersOf(search->progress(), best));
-        if (!s) return fail("cannot store the run's progress: " + s.message());
-        last_progress = now;
-      }
-    }
-
-    if (job.deleted.load()) {
-      std::lock_guard lock(job.search_mutex);
-      job.search = nullptr;
-      return finish();
-    }
-    if (job.shutdown.load() && !search->done()) {
-      // Daemon stopping: keep the run "running" with a fresh checkpoint; the next start
-      // resumes it.
-      json front = snapshot();
-      auto s = store_.writeCheckpoint(id, search->checkpoint(), &front,
-                                      countersOf(search->progress(), best));
-      if (!s) spdlog::error("run {}: checkpoint at shutdown: {}", id, s.message());
-      spdlog::info("run {} checkpointed at generation {} for shutdown", id,
-                   search->progress().generation);
-      std::lock_guard lock(job.search_mutex);
-      job.search = nullptr;
-      return finish();
-    }
-    json front = snapshot();
-    auto p = search->progress();
-    RunStatus status = job.cancel.load() ? RunStatus::Cancelled : RunStatus::Finished;
-    {
-      std::lock_guard lock(job.search_mutex);
-      job.search = nullptr;
-    }
-    // An empty front is not a result (as for `lgp run`): every program scored NaN or infinity,
-    // which the archive never keeps. A cancelled run may end empty.
-    if (status == RunStatus::Finished && search->front().empty())
-      return fail("the search ended with an empty front: none of the " +
-                  std::to_string(p.evaluations) +
-                  " programs evaluated had a finite error, cost and discontinuity (the targets, "
-                  "weights or target transforms overflow the float32 evaluation or its sums)");
-    auto s = store_.finishRun(id, status, &front, countersOf(p, best), "");
-    if (!s) return fail("cannot store the run's final front: " + s.message());
-    spdlog::info("run {} {}: generation {}, {} evaluations, front of {}", id, toString(status),
-                 p.generation, p.evaluations, p.front_size);
+    const Status s = cfg->mpi.np > 0 ? runMpiJob(job, run, *cfg, endStart)
+                                     : runLocalJob(job, *cfg, search, endStart);
+    job.attach(nullptr);
+    if (!s) return fail(s.message());
     return finish();
   } catch (const std::bad_alloc&) {
-    detach();
     return fail("out of memory (the table or the search is too large for this machine)");
   } catch (const std::exception& e) {
-    detach();
     return fail(std::string("internal error: ") + e.what());
   } catch (...) {
-    detach();
     return fail("internal error: an unknown exception");
   }
-}
-
-namespace {
-
-// Status file of `lgp run --status` (lgp-status/1) into the counters; other keys are kept.
-void applyStatus(const json& st, RunCounters& c) {
-  try {
-    if (!st.is_object() || st.value("format", "") != "lgp-status/1") return;
-    c.generation = st.value("generation", c.generation);
-    c.evaluations = st.value("evaluations", c.evaluations);
-    c.elapsed_s = st.value("elapsed_s", c.elapsed_s);
-    if (auto it = st.find("evals_per_s"); it != st.end() && it->is_number())
-      c.evals_per_s = it->get<double>();
-    c.front_size = st.value("front_size", c.front_size);
-    if (auto it = st.find("best_error"); it != st.end())
-      c.best_error = it->is_number() ? it->get<double>() : std::numeric_limits<double>::quiet_NaN();
-    if (auto it = st.find("stop_reason"); it != st.end() && it->is_string())
-      c.stop_reason = it->get<std::string>();
-  } catch (const json::exception&) {
-    // A status of the wrong shape only costs a progress update.
-  }
-}
-
-bool isCheckpoint(const std::optional<json>& j) {
-  return j && j->is_object() && j->value("format", "") == "lgp-checkpoint/2" &&
-         j->contains("generation") && (*j)["generation"].is_number_integer();
-}
-
-// The counters of a front document: size and bests (the error best becomes best_error).
-void applyFront(const json& front, RunCounters& c) {
-  c.best = bestPerObjective(front);
-  if (auto m = front.find("members"); m != front.end() && m->is_array())
-    c.front_size = static_cast<int64_t>(m->size());
-  if (auto e = c.best.find("error"); e != c.best.end()) c.best_error = (*e)["value"].get<double>();
-}
-
-std::string hintFor(int wait_status) {
-  if (!WIFEXITED(wait_status)) return "";
-  switch (WEXITSTATUS(wait_status)) {
-    case 1:
-      return " (lgp run: I/O error)";
-    case 2:
-      return " (lgp run rejected its config or arguments)";
-    case 126:
-    case 127:
-      return " (the launcher could not be executed)";
-    case 130:
-      return " (lgp run was stopped by a signal that lgpd did not send)";
-    default:
-      return "";
-  }
-}
-
-}  // namespace
-
-Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg,
-                             const std::function<void()>& launched) {
-  using clock = std::chrono::steady_clock;
-  const std::string& id = run.id;
-  if (!mpi_.usable())
-    return Status::error("this lgpd cannot launch MPI runs (" + mpi_.unavailable + ")");
-  if (cfg.mpi.np > cfg_.mpi.max_np)
-    return Status::error("/mpi/np: " + std::to_string(cfg.mpi.np) + " exceeds this lgpd's " +
-                         "mpi.max_np (" + std::to_string(cfg_.mpi.max_np) + ")");
-  const MpiWorkDir work{mpiWorkDir(id)};
-  std::error_code ec;
-  fs::create_directories(work.dir, ec);
-  if (ec) return Status::error("cannot create " + work.dir.string() + ": " + ec.message());
-  // Results of an earlier launch must not be taken for this one's.
-  for (const fs::path& p : {work.front(), work.status(), work.pidFile()}) {
-    fs::remove(p, ec);
-    fs::remove(fs::path(p) += ".tmp", ec);
-  }
-
-  // Resume from the newer of the work dir's checkpoint (the launch before a crash may have
-  // written one after the last one lgpd stored) and the store's.
-  std::optional<json> resume_from = readJsonFile(work.checkpoint());
-  if (!isCheckpoint(resume_from)) resume_from.reset();
-  if (auto stored = store_.loadCheckpoint(id); !stored) {
-    spdlog::warn("run {}: {}", id, stored.error());
-  } else if (isCheckpoint(*stored) &&
-             (!resume_from ||
-              (**stored)["generation"].get<int>() > (*resume_from)["generation"].get<int>())) {
-    resume_from = std::move(*stored);
-    if (auto s = lgp::writeTextAtomic(resume_from->dump(), work.checkpoint()); !s) return s;
-  }
-  if (!resume_from) fs::remove(work.checkpoint(), ec);
-  const bool resume = resume_from.has_value();
-  const int resume_generation = resume ? (*resume_from)["generation"].get<int>() : 0;
-  resume_from.reset();
-
-  // The config the child reads: the stored one (absolute data paths), with every output path
-  // pointing into the work dir. A request's own output section never reaches the child.
-  json rc = run.config;
-  if (run.inline_table) rc["data"]["path"] = inlineTablePath(id).string();
-  json output = {{"front_json", work.front().string()},
-                 {"front_csv", ""},
-                 {"progress_interval_s", cfg_.progress_interval_s},
-                 {"checkpoint", work.checkpoint().string()},
-                 {"checkpoint_interval_s", cfg_.checkpoint_interval_s}};
-  if (auto o = rc.find("output");
-      o != rc.end() && o->is_object() && o->contains("progress_cost_levels"))
-    output["progress_cost_levels"] = (*o)["progress_cost_levels"];
-  rc["output"] = std::move(output);
-  if (auto s = lgp::writeTextAtomic(rc.dump(2) + "\n", work.config()); !s) return s;
-
-  if (job.deleted.load()) return Status::ok();
-  if (job.cancel.load()) {
-    auto s = store_.finishRun(id, RunStatus::Cancelled, nullptr, run.counters, "");
-    return s;
-  }
-  if (job.shutdown.load()) return Status::ok();
-
-  const auto argv = mpiArgv(mpi_, cfg_.mpi, cfg.mpi.np, work, cfg_.checkpoint_interval_s, resume);
-  std::vector<std::string> env;
-  if (::geteuid() == 0) env = {"OMPI_ALLOW_RUN_AS_ROOT=1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1"};
-  {
-    // The log keeps every launch of the run; a fresh start begins a new one.
-    std::ofstream log(work.log(), resume ? std::ios::app : std::ios::trunc);
-    log << "lgpd: launch at " << static_cast<int64_t>(unixNow()) << ":";
-    for (const auto& a : argv) log << " '" << a << "'";
-    log << "\n";
-  }
-  if (auto s = store_.markStarted(id, resume, resume_generation); !s) return s;
-  auto child = ChildProcess::spawn(argv, env, work.log());
-  if (!child) return Status::error("cannot start " + argv[0] + ": " + child.error());
-  lgp::writeTextAtomic(std::to_string(child->pid()) + "\n", work.pidFile());
-  launched();
-  spdlog::info("run {} {} over MPI: {} -np {} (pid {}){}", id, resume ? "resumed" : "started",
-               argv[0], cfg.mpi.np, child->pid(),
-               resume ? " from generation " + std::to_string(resume_generation) : "");
-
-  RunCounters counters = run.counters;
-  counters.generation = resume_generation;
-  FileVersion seen_status, seen_ckpt = FileVersion::of(work.checkpoint());
-  // A front for the store from each checkpoint, by restoring it into an in-process Search
-  // (built on first use: the daemon then holds the table too).
-  std::unique_ptr<lgp::Search> viewer;
-  bool viewer_failed = false;
-  json viewer_refs;  // the references scored on the viewer's table, once
-  auto frontOf = [&](const json& state) -> std::optional<json> {
-    if (viewer_failed) return std::nullopt;
-    if (!viewer) {
-      auto table = lgp::cli::loadRunTable(cfg);
-      if (!table) {
-        spdlog::warn("run {}: no live front ({})", id, table.error());
-        viewer_failed = true;
-        return std::nullopt;
-      }
-      // A run over more ranks than its islands raised the count: take it from the state.
-      lgp::RunConfig view_cfg = cfg;
-      lgp::Search::adoptCheckpointIslands(view_cfg, state);
-      viewer = std::make_unique<lgp::Search>(view_cfg, std::move(*table));
-#ifdef LGP_HAVE_EMIT
-      if (cfg.references.is_array() && !cfg.references.empty())
-        viewer_refs = lgp::emit::scoreReferences(viewer->config(), viewer->table());
-#endif
-    }
-    if (auto s = viewer->restore(state); !s) {
-      spdlog::warn("run {}: checkpoint kept without a front ({})", id, s.message());
-      viewer_failed = true;  // the same would happen with every later checkpoint
-      return std::nullopt;
-    }
-    json front = lgp::frontToJson(*viewer, viewer->front());
-    if (!viewer_refs.is_null()) front["references"] = viewer_refs;
-    addMeasuredCost(cfg, front);
-    return front;
-  };
-  // The first write to the store that failed (a full disk): the ranks are stopped as for a
-  // cancel and the run fails with this reason, as an in-process run does.
-  std::string store_failure;
-  auto pollStatus = [&] {
-    auto v = FileVersion::of(work.status());
-    if (!v.exists || v == seen_status) return;
-    seen_status = v;
-    auto st = readJsonFile(work.status());
-    if (!st) return;
-    applyStatus(*st, counters);
-    if (auto s = store_.updateProgress(id, counters); !s) {
-      spdlog::error("run {}: progress: {}", id, s.message());
-      if (store_failure.empty()) store_failure = "cannot store the run's progress: " + s.message();
-    }
-  };
-  auto pollCheckpoint = [&] {
-    auto v = FileVersion::of(work.checkpoint());
-    if (!v.exists || v == seen_ckpt) return;
-    seen_ckpt = v;
-    auto state = readJsonFile(work.checkpoint());
-    if (!isCheckpoint(state)) return;
-    RunCounters c = counters;
-    c.generation = (*state)["generation"].get<int>();
-    c.evaluations = state->value("evaluations", c.evaluations);
-    c.elapsed_s = state->value("elapsed_s", c.elapsed_s);
-    auto front = frontOf(*state);
-    if (front) applyFront(*front, c);
-    if (auto s = store_.writeCheckpoint(id, *state, front ? &*front : nullptr, c); !s) {
-      spdlog::error("run {}: checkpoint: {}", id, s.message());
-      if (store_failure.empty())
-        store_failure = "cannot store the run's checkpoint: " + s.message();
-    } else {
-      counters.best = c.best;
-    }
-  };
-
-  // Wait for the child; a stop request is SIGUSR1 (mpirun forwards it to every rank, which
-  // finish their generation and write the front and a checkpoint), then SIGTERM after the
-  // grace period (mpirun kills the ranks a second later), then SIGKILL to the whole process
-  // group after another min(grace, 10 s).
-  const auto grace = std::chrono::duration<double>(cfg_.mpi.stop_grace_s);
-  const auto kill_after =
-      grace + std::min<std::chrono::duration<double>>(grace, std::chrono::seconds(10));
-  std::optional<clock::time_point> stop_at;
-  int stage = 0;  // signals sent: 1 = USR1, 2 = TERM, 3 = KILL
-  int wait_status = 0;
-  for (;;) {
-    if (auto st = child->poll()) {
-      wait_status = *st;
-      break;
-    }
-    if (job.cancel.load() || job.deleted.load() || job.shutdown.load() || !store_failure.empty()) {
-      const auto now = clock::now();
-      if (!stop_at) stop_at = now;
-      if (stage == 0) {
-        child->signal(SIGUSR1);
-        stage = 1;
-      } else if (stage == 1 && now - *stop_at >= grace) {
-        spdlog::warn("run {}: launcher still running {} s after SIGUSR1; sending SIGTERM", id,
-                     cfg_.mpi.stop_grace_s);
-        child->signal(SIGTERM);
-        stage = 2;
-      } else if (stage == 2 && now - *stop_at >= kill_after) {
-        spdlog::warn("run {}: killing the launcher's process group", id);
-        child->signalGroup(SIGKILL);
-        child->signal(SIGKILL);
-        stage = 3;
-      }
-    }
-    if (!job.deleted.load()) {
-      pollStatus();
-      pollCheckpoint();
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  // Ranks the launcher left behind in its group (it normally reaps them itself).
-  child->signalGroup(SIGKILL);
-  const std::string how =
-      fs::path(argv[0]).filename().string() + " " + describeWaitStatus(wait_status);
-  spdlog::info("run {}: {}", id, how);
-
-  if (job.deleted.load()) {
-    fs::remove_all(work.dir, ec);
-    return Status::ok();
-  }
-  if (!store_failure.empty() && !job.cancel.load() && !job.shutdown.load())
-    return Status::error(store_failure + " (the launch was stopped; its work dir " +
-                         work.dir.string() + " is kept)");
-  const bool exited = WIFEXITED(wait_status);
-  const int code = exited ? WEXITSTATUS(wait_status) : -1;
-  // lgpd may be stopping by a signal that also reached the child first (a service manager
-  // signals the whole cgroup): give the shutdown a moment to show before calling it a failure.
-  if (!(exited && code == 0) && !job.cancel.load())
-    for (int i = 0; i < 40 && !job.shutdown.load(); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  pollStatus();
-  if (auto st = readJsonFile(work.status())) applyStatus(*st, counters);
-
-  if (job.shutdown.load() && !(exited && code == 0) && !job.cancel.load()) {
-    // Stays "running": the next lgpd relaunches it with --resume.
-    pollCheckpoint();
-    spdlog::info("run {} stopped for shutdown at generation {}", id, counters.generation);
-    return Status::ok();
-  }
-  std::optional<json> front;
-  if (exited && (code == 0 || code == 130)) {
-    front = readJsonFile(work.front());
-    if (front && (!front->is_object() || front->value("format", "") != "lgp-front/1"))
-      front.reset();
-  }
-  if (job.cancel.load()) {
-    // With no front file (the launch died instead of stopping) the last snapshot is final.
-    if (front) applyFront(*front, counters);
-    auto s = store_.finishRun(id, RunStatus::Cancelled, front ? &*front : nullptr, counters, "");
-    if (!s) return s;
-    spdlog::info("run {} cancelled at generation {}{}", id, counters.generation,
-                 front ? "" : " (no final front from the launch: " + how + ")");
-    fs::remove_all(work.dir, ec);
-    return Status::ok();
-  }
-  if (exited && code == 0 && front) {
-    applyFront(*front, counters);
-    auto s = store_.finishRun(id, RunStatus::Finished, &*front, counters, "");
-    if (!s) return s;
-    spdlog::info("run {} finished: generation {}, {} evaluations, front of {}", id,
-                 counters.generation, counters.evaluations, counters.front_size);
-    fs::remove_all(work.dir, ec);
-    return Status::ok();
-  }
-  // Failed: the newest checkpoint goes to the store (it stays there), the work dir with its
-  // log stays for a post-mortem.
-  pollCheckpoint();
-  std::string msg = "MPI launch failed: " + how + hintFor(wait_status);
-  if (exited && code == 0) msg += ", but wrote no valid front to " + work.front().string();
-  const std::string tail = fileTail(work.log(), 15, 3000);
-  if (!tail.empty()) msg += "; last output:\n" + tail;
-  return Status::error(msg);
 }
 
 bool JobManager::isActive(const std::string& id) const {

@@ -1,8 +1,9 @@
 // The job queue: runs up to `max_jobs` searches at once, one thread per running job.
 //
-// A job thread loads the table, builds an lgp::Search, restores the run's checkpoint if there
-// is one, then calls step() until done(). Every `checkpoint_interval_s` it writes the search
-// checkpoint, a front snapshot and the counters in one transaction; every
+// A job thread runs the run pipeline (frontends/common/run_pipeline.hpp), as `lgp run` does:
+// it loads the table, builds an lgp::Search, restores the run's checkpoint if there is one
+// (else seeds it), then calls step() until done(). Every `checkpoint_interval_s` it writes the
+// search checkpoint, a front snapshot and the counters in one transaction; every
 // `progress_interval_s` it writes the counters and a history row; every `front_interval_s`
 // a live front snapshot. At the end the final front and the terminal status are written in
 // one transaction, so a finished front is never half-written.
@@ -44,6 +45,7 @@
 #include "daemon_config.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/search/search.hpp"
 #include "mpi_launch.hpp"
 #include "store.hpp"
 
@@ -112,10 +114,27 @@ class JobManager {
   // Starts the job's thread; when that fails (std::system_error) the run is failed in the
   // store and false returned: the caller drops the job.
   bool startJobThread(Job& job);
-  // The out-of-process job of an MPI run. An error fails the run (unless it was deleted).
-  // launched() is called once the launcher runs.
+  // The in-process job (local_job.cpp): the run pipeline, then step() until done, storing
+  // checkpoints, fronts and counters. `search` is the caller's, so that it outlives what a
+  // cancel can reach. An error fails the run; started() is called after each generation.
+  struct LocalRun;
+  lgp::Status runLocalJob(Job& job, const lgp::RunConfig& cfg, std::unique_ptr<lgp::Search>& search,
+                          const std::function<void()>& started);
+  lgp::Status stepLocalJob(LocalRun& run, const std::function<void()>& started);
+  // The end of a local job: its final front, or a checkpoint when the daemon is stopping.
+  lgp::Status endLocalJob(LocalRun& run);
+  // The out-of-process job of an MPI run (mpi_job.cpp). An error fails the run (unless it was
+  // deleted). launched() is called once the launcher runs.
   lgp::Status runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfig& cfg,
                         const std::function<void()>& launched);
+  // A launched MPI child and the files it writes (mpi_job.cpp).
+  struct MpiChild;
+  // Waits for the child, polling its files into the store; a stop request (cancel, delete,
+  // shutdown, a failed store write) signals it. Returns its wait status.
+  int waitForChild(Job& job, MpiChild& child);
+  // The run's end after the child's: finished, cancelled, kept running for a shutdown, or an
+  // error that fails it.
+  lgp::Status endMpiJob(Job& job, MpiChild& child, int wait_status);
   void publishTable(const std::string& id, TablePtr table);
   lgp::Expected<TablePtr> loadTable(const RunRecord& run) const;
   // Runs `task` on the background thread (started on first use, joined by shutdown()).

@@ -21,7 +21,7 @@
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
 #include "lgp/search/two_step.hpp"
-#include "run_extras.hpp"
+#include "run_pipeline.hpp"
 #include "table_source.hpp"
 #ifdef LGP_HAVE_EMIT
 #include "lgp/emit/emit.hpp"
@@ -151,11 +151,11 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
               std::optional<Matrix> y, std::optional<Matrix> w, py::object progress,
               double progress_interval) {
   lgp::RunConfig cfg = parseConfig(config_text, base_dir);
+  // The run pipeline (run_pipeline.hpp), with arrays as a table source and Python's progress
+  // callback and KeyboardInterrupt as the display.
   lgp::Table table = x ? arrayTable(cfg, *x, *y, w) : orRaise(lgp::cli::loadRunTable(cfg));
-  if (auto st = lgp::cli::checkRunReferences(cfg, table); !st) valueError(st.message());
-  auto seeds = orRaise(lgp::cli::referenceSeeds(cfg, table));
+  auto seeds = orRaise(lgp::cli::prepareRun(cfg, table, false, false));
   const bool two_step = cfg.search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
-  if (auto st = lgp::cli::checkRunMode(cfg, !seeds.empty(), false); !st) valueError(st.message());
   PythonTicker ticker(progress, progress_interval);
   nlohmann::json exhaustive;
   std::unique_ptr<lgp::Search> single;
@@ -170,18 +170,14 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
     });
   } else {
     single = std::make_unique<lgp::Search>(cfg, std::move(table));
-    if (auto st = lgp::cli::enableArchiveMeasuredCost(*single); !st) valueError(st.message());
-    warnings = single->addSeeds(seeds);
-    {
-      py::gil_scoped_release nogil;
-      auto cert = lgp::cli::runExhaustive(*single);
-      if (!cert) {
-        py::gil_scoped_acquire gil;
-        valueError(cert.error());
-      }
-      exhaustive = std::move(*cert);
-    }
     auto* s = single.get();
+    auto start = [&] {
+      py::gil_scoped_release nogil;
+      return lgp::cli::startSearch(*s, seeds, true);
+    }();
+    if (!start) valueError(start.error());
+    warnings = std::move(start->not_seeded);
+    exhaustive = std::move(start->exhaustive);
     auto snapshot = [s] { return s->progress(); };
     auto stop = [s] { s->requestStop(); };
     py::gil_scoped_release nogil;
@@ -198,14 +194,11 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
   std::string note;
   {
     py::gil_scoped_release nogil;
-    const auto members = search.front();
-    if (!members.empty()) {
-      front = lgp::frontToJson(search, members);
-      if (!exhaustive.is_null()) front["exhaustive"] = exhaustive;
-      note = lgp::cli::addFrontExtras(front, search);
-    }
+    front = lgp::cli::frontJson(search, exhaustive);
+    if (!front["members"].empty())
+      note = lgp::cli::FrontExtras(search.config(), search.table()).addTo(front);
   }
-  if (front.is_null()) valueError(lgp::cli::emptyFrontMessage(search));
+  if (front["members"].empty()) valueError(lgp::cli::emptyFrontMessage(search));
   for (const auto& why : warnings) note += (note.empty() ? "" : "\n") + ("not seeded: " + why);
   return py::make_tuple(front.dump(), ticker.interrupted(), note);
 }

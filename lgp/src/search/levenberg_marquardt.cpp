@@ -398,6 +398,63 @@ struct ConstantFitter::Impl {
     }
   }
 
+  // pass()'s Jacobian part for the block of rows r0..r0+nr: once it has written the block's
+  // residual column and q, the derivative columns into block_a and their products into gram.
+  void jacobianBlock(const Eigen::VectorXd& x, size_t r0, int nr) {
+    const int np = jac.numParameters();
+    const size_t n = rows;
+    const size_t nc = channels.size();
+    const int na = static_cast<int>(nc) * nr;
+    // d r / d c_k = sum_o W q_o a_o df_o/dc_k, d r / d a_o = W q_o f_o, d r / d b_o = W q_o.
+    for (size_t c = 0; c < nc; ++c) {
+      const std::vector<int>& act = active[c];
+      for (size_t j = 0; j + 1 < act.size(); ++j) {  // the last one is the residual
+        const int v = act[j];
+        double* out = block_a.data() + static_cast<size_t>(v) * na + c * nr;
+        bool first = true;  // the first contribution assigns, later ones add
+        for (const auto& [o, w] : channels[c]) {
+          const double* qo = q[o];
+          const float* d;  // the factor beside q: df_o/dc_v, f_o, or none (1)
+          double sc = w;
+          if (v < np) {
+            if (!jac.hasDerivative(o, v)) continue;
+            d = jac.derivative(o, v);
+            if (scaling) sc *= x[np + 2 * o];
+          } else if (v == np + 2 * o) {
+            d = jac.value(o);
+          } else if (v == np + 2 * o + 1) {
+            d = nullptr;
+          } else {
+            continue;
+          }
+          if (d == nullptr && first) {
+#pragma omp simd
+            for (int i = 0; i < nr; ++i) out[i] = sc * qo[i];
+          } else if (d == nullptr) {
+#pragma omp simd
+            for (int i = 0; i < nr; ++i) out[i] += sc * qo[i];
+          } else if (first) {
+#pragma omp simd
+            for (int i = 0; i < nr; ++i) out[i] = sc * qo[i] * d[i];
+          } else {
+#pragma omp simd
+            for (int i = 0; i < nr; ++i) out[i] += sc * qo[i] * d[i];
+          }
+          first = false;
+        }
+      }
+      if (weighted) {  // the residual column is scaled already
+        const double* sc = scale.data() + c * n + r0;
+        for (size_t j = 0; j + 1 < act.size(); ++j) {
+          double* out = block_a.data() + static_cast<size_t>(act[j]) * na + c * nr;
+#pragma omp simd
+          for (int i = 0; i < nr; ++i) out[i] *= sc[i];
+        }
+      }
+      accumulateGram(act, block_a.data() + c * nr, na, nr);
+    }
+  }
+
   // One pass over the rows at x. Returns the residual norm (kHugeResidual if a residual or a
   // constant is not finite). With `jacobian`, also accumulates the Gram matrix gram = A'A of
   // A = [J | r] (rows x (n + 1)), block by block, without storing A.
@@ -496,55 +553,7 @@ struct ConstantFitter::Impl {
           sse += out[i] * out[i];
         }
       }
-      if (!jacobian) continue;
-      // d r / d c_k = sum_o W q_o a_o df_o/dc_k, d r / d a_o = W q_o f_o, d r / d b_o = W q_o.
-      for (size_t c = 0; c < nc; ++c) {
-        const std::vector<int>& act = active[c];
-        for (size_t j = 0; j + 1 < act.size(); ++j) {  // the last one is the residual
-          const int v = act[j];
-          double* out = block_a.data() + static_cast<size_t>(v) * na + c * nr;
-          bool first = true;  // the first contribution assigns, later ones add
-          for (const auto& [o, w] : channels[c]) {
-            const double* qo = q[o];
-            const float* d;  // the factor beside q: df_o/dc_v, f_o, or none (1)
-            double sc = w;
-            if (v < np) {
-              if (!jac.hasDerivative(o, v)) continue;
-              d = jac.derivative(o, v);
-              if (scaling) sc *= x[np + 2 * o];
-            } else if (v == np + 2 * o) {
-              d = jac.value(o);
-            } else if (v == np + 2 * o + 1) {
-              d = nullptr;
-            } else {
-              continue;
-            }
-            if (d == nullptr && first) {
-#pragma omp simd
-              for (int i = 0; i < nr; ++i) out[i] = sc * qo[i];
-            } else if (d == nullptr) {
-#pragma omp simd
-              for (int i = 0; i < nr; ++i) out[i] += sc * qo[i];
-            } else if (first) {
-#pragma omp simd
-              for (int i = 0; i < nr; ++i) out[i] = sc * qo[i] * d[i];
-            } else {
-#pragma omp simd
-              for (int i = 0; i < nr; ++i) out[i] += sc * qo[i] * d[i];
-            }
-            first = false;
-          }
-        }
-        if (weighted) {  // the residual column is scaled already
-          const double* sc = scale.data() + c * n + r0;
-          for (size_t j = 0; j + 1 < act.size(); ++j) {
-            double* out = block_a.data() + static_cast<size_t>(act[j]) * na + c * nr;
-#pragma omp simd
-            for (int i = 0; i < nr; ++i) out[i] *= sc[i];
-          }
-        }
-        accumulateGram(act, block_a.data() + c * nr, na, nr);
-      }
+      if (jacobian) jacobianBlock(x, r0, nr);
     }
     if (!std::isfinite(sse)) {
       ++non_finite;

@@ -367,24 +367,45 @@ Expected<Table> shareTable(const Expected<Table>& on_rank0) {
   return t;
 }
 
-Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
-                                           DistributedOptions opt) {
-  const auto started = Clock::now();
-  Comm comm;
-  const int rank = comm.rank(), ranks = comm.size();
-  const bool sync = cfg.mpi.migration == MigrationMode::Sync;
-  auto warn = [&](const std::string& w) {
-    if (rank == 0 && opt.on_warning) opt.on_warning(w);
-  };
+namespace {
+
+// One rank's part of runDistributed. Every rank runs its islands and exchanges migrants with
+// the others; rank 0 also watches the rest (their reports make the merged progress), decides
+// for all of them when to stop and to checkpoint in async mode, writes the checkpoints and
+// assembles the result. In sync mode one collective per generation makes those decisions.
+class Driver {
+ public:
+  Driver(RunConfig cfg, const Table& table, DistributedOptions opt)
+      : cfg_(std::move(cfg)),
+        table_(table),
+        opt_(std::move(opt)),
+        rank_(comm_.rank()),
+        ranks_(comm_.size()),
+        sync_(cfg_.mpi.migration == MigrationMode::Sync),
+        checkpoints_(!opt_.checkpoint_path.empty()) {}
+
+  Expected<DistributedResult> run() {
+    if (auto s = readResume(); !s) return s;
+    if (auto s = layOutIslands(); !s) return s;
+    if (auto s = start(); !s) return s;
+    if (opt_.on_search) opt_.on_search(search_.get());
+    loop();
+    return finish();
+  }
+
+ private:
+  void warn(const std::string& w) const {
+    if (rank_ == 0 && opt_.on_warning) opt_.on_warning(w);
+  }
 
   // A resume starts from rank 0's file (the other ranks may be on machines that do not see
   // its file system).
-  json resume_state;
-  if (opt.resume) {
+  Status readResume() {
+    if (!opt_.resume) return Status::ok();
     std::string bytes;
     Status read = Status::ok();
-    if (rank == 0) {
-      auto ck = readCheckpointFile(opt.checkpoint_path);
+    if (rank_ == 0) {
+      auto ck = readCheckpointFile(opt_.checkpoint_path);
       if (ck) {
         const auto v = json::to_msgpack(*ck);
         bytes.assign(v.begin(), v.end());
@@ -392,54 +413,69 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
         read = ck.status();
       }
     }
-    if (auto s = comm.agree(read); !s) return s;
-    comm.broadcast(bytes, 0);
-    resume_state = json::from_msgpack(bytes);
-    if (Search::adoptCheckpointIslands(cfg, resume_state))
-      warn("search.islands.count: " + std::to_string(cfg.search.islands.count) +
+    if (auto s = comm_.agree(read); !s) return s;
+    comm_.broadcast(bytes, 0);
+    resume_state_ = json::from_msgpack(bytes);
+    if (Search::adoptCheckpointIslands(cfg_, resume_state_))
+      warn("search.islands.count: " + std::to_string(cfg_.search.islands.count) +
            " islands, as in the checkpoint");
+    return Status::ok();
   }
 
-  // Every rank runs at least one island.
-  int total = Search::islandCount(cfg);
-  Status setup = Status::ok();
-  if (total < ranks) {
-    if (cfg.search.population / 4 < ranks) {
-      setup =
-          Status::error("/search/population: " + std::to_string(ranks) + " ranks need at least " +
-                        std::to_string(4 * ranks) + " individuals (one island of 4 per rank; got " +
-                        std::to_string(cfg.search.population) + ")");
-    } else {
-      warn("search.islands.count is " + std::to_string(cfg.search.islands.count) + ": using " +
-           std::to_string(ranks) + " islands, one per rank");
-      cfg.search.islands.count = ranks;
-      total = ranks;
+  // Every rank runs at least one island; rank r runs [first_, first_ + count_).
+  Status layOutIslands() {
+    total_ = Search::islandCount(cfg_);
+    Status setup = Status::ok();
+    if (total_ < ranks_) {
+      if (cfg_.search.population / 4 < ranks_) {
+        setup = Status::error("/search/population: " + std::to_string(ranks_) +
+                              " ranks need at least " + std::to_string(4 * ranks_) +
+                              " individuals (one island of 4 per rank; got " +
+                              std::to_string(cfg_.search.population) + ")");
+      } else {
+        warn("search.islands.count is " + std::to_string(cfg_.search.islands.count) + ": using " +
+             std::to_string(ranks_) + " islands, one per rank");
+        cfg_.search.islands.count = ranks_;
+        total_ = ranks_;
+      }
     }
+    if (cfg_.search.threads == 0) cfg_.search.threads = threadsPerRank(comm_.handle());
+    if (auto s = comm_.agree(setup); !s) return s;
+    if (cfg_.mpi.np > 0 && cfg_.mpi.np != ranks_)
+      warn("mpi.np is " + std::to_string(cfg_.mpi.np) + ", the launcher started " +
+           std::to_string(ranks_) + " ranks; running on " + std::to_string(ranks_));
+    owner_.resize(total_);
+    for (int r = 0; r < ranks_; ++r)
+      for (int k = r * total_ / ranks_; k < (r + 1) * total_ / ranks_; ++k) owner_[k] = r;
+    first_ = rank_ * total_ / ranks_;
+    count_ = (rank_ + 1) * total_ / ranks_ - first_;
+    return Status::ok();
   }
-  if (cfg.search.threads == 0) cfg.search.threads = threadsPerRank(comm.handle());
-  if (auto s = comm.agree(setup); !s) return s;
-  if (cfg.mpi.np > 0 && cfg.mpi.np != ranks)
-    warn("mpi.np is " + std::to_string(cfg.mpi.np) + ", the launcher started " +
-         std::to_string(ranks) + " ranks; running on " + std::to_string(ranks));
 
-  std::vector<int> owner(total);
-  for (int r = 0; r < ranks; ++r)
-    for (int k = r * total / ranks; k < (r + 1) * total / ranks; ++k) owner[k] = r;
-  const int first = rank * total / ranks;
-  const int count = (rank + 1) * total / ranks - first;
+  // The local search: from the checkpoint, or from random programs plus seeds.
+  Status start() {
+    search_ = std::make_unique<Search>(cfg_, table_);
+    search_->setIslandRange(first_, count_, total_);
+    search_->setRanks(ranks_);
+    auto transport = std::make_unique<MpiTransport>(comm_, owner_, sync_, search_->shape());
+    mig_ = transport.get();
+    search_->setTransport(std::move(transport));
+    Status start = Status::ok();
+    if (opt_.resume) {
+      start = restore();
+      if (!start && rank_ == 0)
+        start = Status::error(opt_.checkpoint_path + ": " + start.message());
+    } else {
+      const auto skipped = search_->addSeeds(opt_.seeds);
+      for (const auto& why : skipped) warn("/search/seed_references: not seeded: " + why);
+      search_->initialize();
+    }
+    return comm_.agree(start);
+  }
 
-  auto search = std::make_unique<Search>(cfg, table);
-  search->setIslandRange(first, count, total);
-  search->setRanks(ranks);
-  auto transport = std::make_unique<MpiTransport>(comm, owner, sync, search->shape());
-  MpiTransport* mig = transport.get();
-  search->setTransport(std::move(transport));
-
-  // Start: from the checkpoint, or from random programs plus seeds.
-  Status start = Status::ok();
-  if (opt.resume) {
+  Status restore() {
     try {
-      const json& ck = resume_state;
+      const json& ck = resume_state_;
       const auto& parts = ck.value("parts", json::array());
       // Sync mode needs every rank at the same generation (migration rounds are matched by
       // order); the parts of an async checkpoint may be a generation or two apart.
@@ -447,270 +483,322 @@ Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
       for (const auto& p : parts)
         same_generation =
             same_generation && p.value("generation", -1) == ck.value("generation", -2);
-      if (static_cast<int>(parts.size()) == ranks && ck.value("island_total", 0) == total &&
-          parts[rank].value("island_first", -1) == first && (!sync || same_generation)) {
-        start = search->restore(parts[rank]);  // the same layout: each rank exactly
-      } else {
-        // Another rank count: islands dealt anew, every rank starts from the whole archive,
-        // and rank 0 carries the counters.
-        start = search->restore(ck, rank == 0);
-      }
+      if (static_cast<int>(parts.size()) == ranks_ && ck.value("island_total", 0) == total_ &&
+          parts[rank_].value("island_first", -1) == first_ && (!sync_ || same_generation))
+        return search_->restore(parts[rank_]);  // the same layout: each rank exactly
+      // Another rank count: islands dealt anew, every rank starts from the whole archive,
+      // and rank 0 carries the counters.
+      return search_->restore(ck, rank_ == 0);
     } catch (const json::exception& e) {
-      start = Status::error(std::string("checkpoint: ") + e.what());
+      return Status::error(std::string("checkpoint: ") + e.what());
     }
-    if (!start && rank == 0) start = Status::error(opt.checkpoint_path + ": " + start.message());
-  } else {
-    const auto skipped = search->addSeeds(opt.seeds);
-    for (const auto& why : skipped) warn("/search/seed_references: not seeded: " + why);
-    search->initialize();
   }
-  if (auto s = comm.agree(start); !s) return s;
-  if (opt.on_search) opt.on_search(search.get());
 
-  // Rank 0's view of the others.
-  std::vector<Report> reports(ranks);
-  std::map<int, std::vector<json>> parts;  // checkpoint round -> state per rank
-  std::vector<json> finals(ranks), stats(ranks);
-  std::vector<std::string> own_reasons(ranks);  // why each rank stopped on its own ("" = told)
-  std::string global_reason;                    // set when rank 0 stops everyone
-  bool told_to_stop = false, stop_sent = false;
-  int checkpoint_seq = 0, answered_seq = 0, wanted_seq = 0;
-
-  auto writeCheckpoint = [&](const std::vector<json>& states) {
-    auto combined = combineCheckpoints(cfg, search->shape(), states);
-    if (!combined) {
-      warn("checkpoint not written: " + combined.error());
-      return;
-    }
-    if (auto s = writeCheckpointFile(*combined, opt.checkpoint_path); !s)
-      warn("checkpoint not written: " + s.message());
-  };
-  auto handle = [&](Message& m) {
+  void handle(Message& m) {
     switch (m.tag) {
       case kMigrants:
-        mig->deliver(m);
+        mig_->deliver(m);
         break;
-      case kReport: {
-        Report& r = reports[m.source];
-        r.generation = m.body.at("generation").get<int>();
-        r.evaluations = m.body.at("evaluations").get<uint64_t>();
-        r.migrants = m.body.at("migrants").get<uint64_t>();
-        r.remote_migrants = m.body.at("remote_migrants").get<uint64_t>();
-        r.restarts = m.body.at("restarts").get<uint64_t>();
-        r.evals_per_s = m.body.at("evals_per_s").get<double>();
-        r.received = Clock::now();
-        r.front.clear();
-        for (const auto& o : m.body.at("front")) r.front.push_back(objFromJson(o));
+      case kReport:
+        readReport(m);
         break;
-      }
       case kControl:
         if (m.body.contains("stop")) {
-          told_to_stop = true;
-          search->requestStop();
+          told_to_stop_ = true;
+          search_->requestStop();
         }
-        if (m.body.contains("checkpoint")) wanted_seq = m.body.at("checkpoint").get<int>();
+        if (m.body.contains("checkpoint")) wanted_seq_ = m.body.at("checkpoint").get<int>();
         break;
       case kPart: {
-        auto& round = parts[m.body.at("seq").get<int>()];
-        round.resize(ranks);
+        auto& round = parts_[m.body.at("seq").get<int>()];
+        round.resize(ranks_);
         round[m.source] = std::move(m.body.at("state"));
         break;
       }
       case kFinal:
-        finals[m.source] = std::move(m.body.at("state"));
-        stats[m.source] = std::move(m.body.at("stats"));
-        own_reasons[m.source] = m.body.at("reason").get<std::string>();
+        finals_[m.source] = std::move(m.body.at("state"));
+        stats_[m.source] = std::move(m.body.at("stats"));
+        own_reasons_[m.source] = m.body.at("reason").get<std::string>();
         break;
       default:
         break;
     }
-  };
-  // Sync mode keeps migrant batches for the transport's ordered receives.
-  auto pump = [&]() {
-    for (int tag : {kReport, kControl, kPart, kFinal, kMigrants}) {
-      if (sync && tag == kMigrants) continue;
-      while (auto m = comm.poll(tag)) handle(*m);
-    }
-    comm.reap();
-  };
-  auto mergedProgress = [&]() {
-    SearchProgress p = search->progress();
-    Archive merged(cfg.search.archive);
-    for (const auto& m : search->archiveMembers()) merged.insert(m.program, m.obj);
-    const Program none;
-    for (int r = 1; r < ranks; ++r) {
-      p.evaluations += reports[r].evaluations;
-      p.migrants += reports[r].migrants;
-      p.remote_migrants += reports[r].remote_migrants;
-      p.restarts += reports[r].restarts;
-      p.evals_per_s += reports[r].evals_per_s;
-      for (const auto& o : reports[r].front) merged.insert(none, o);
-    }
-    summarizeArchive(p, merged.members(), cfg.output.progress_cost_levels);
-    p.islands = total;
-    p.ranks = ranks;
-    return p;
-  };
+  }
 
-  const double report_every = std::clamp(cfg.output.progress_interval_s, 0.1, 1.0);
-  auto last_report = Clock::now(), last_progress = Clock::now(), last_checkpoint = Clock::now();
-  const bool checkpoints = !opt.checkpoint_path.empty();
-  while (true) {
-    pump();
-    const bool done = search->done();
-    bool stop = false, checkpoint_now = false;
-    if (sync) {
-      // One collective per generation: whether any rank is done, whether rank 0 wants a
-      // checkpoint, and the evaluations so far; every rank draws the same conclusion.
-      const bool due = rank == 0 && checkpoints &&
-                       seconds(Clock::now() - last_checkpoint) >= opt.checkpoint_interval_s;
-      uint64_t in[3] = {done ? 1u : 0u, due ? 1u : 0u, search->progress().evaluations};
-      uint64_t out[3] = {0, 0, 0};
-      comm.allreduceSum(in, out, 3);
-      if (cfg.search.max_evaluations > 0 && out[2] >= cfg.search.max_evaluations) {
-        global_reason = "evaluations";
-        stop = true;
-      }
-      stop = stop || out[0] > 0;
-      if (stop && !done) told_to_stop = true;
-      checkpoint_now = out[1] > 0 && !stop;
-      if (checkpoint_now) wanted_seq = ++checkpoint_seq;
-    } else {
-      if (rank == 0) {
-        // Reports are up to report_every old: extrapolate at each rank's last rate, so the
-        // evaluation budget is not overshot by a report period's worth.
-        double evaluations = static_cast<double>(search->progress().evaluations);
-        for (int r = 1; r < ranks; ++r)
-          evaluations += static_cast<double>(reports[r].evaluations) +
-                         (reports[r].evaluations > 0
-                              ? reports[r].evals_per_s * seconds(Clock::now() - reports[r].received)
-                              : 0.0);
-        if (cfg.search.max_evaluations > 0 &&
-            evaluations >= static_cast<double>(cfg.search.max_evaluations) &&
-            global_reason.empty()) {
-          global_reason = "evaluations";
-          search->requestStop();
-        }
-        // A rank that stopped for any reason but its generation budget (which every rank
-        // reaches by itself) stops all of them.
-        std::string why = search->done() ? search->progress().stop_reason : "";
-        for (int r = 1; r < ranks && why.empty(); ++r)
-          if (!own_reasons[r].empty() && own_reasons[r] != "generations") why = own_reasons[r];
-        if (!why.empty() && why != "generations" && !stop_sent) {
-          if (!search->done()) {
-            // Rank 0 stops for another rank's reason: that is the run's reason, not "stopped".
-            search->requestStop();
-            if (global_reason.empty()) global_reason = why;
-          }
-          for (int r = 1; r < ranks; ++r) comm.send(r, kControl, {{"stop", why}});
-          stop_sent = true;
-        }
-        if (checkpoints && !search->done() &&
-            seconds(Clock::now() - last_checkpoint) >= opt.checkpoint_interval_s) {
-          wanted_seq = ++checkpoint_seq;
-          for (int r = 1; r < ranks; ++r) comm.send(r, kControl, {{"checkpoint", wanted_seq}});
-          // A rank that has finished never answers: keep only the last few open rounds.
-          parts.erase(parts.begin(), parts.lower_bound(wanted_seq - 2));
-        }
-      }
-      stop = search->done();
-      checkpoint_now = !stop && wanted_seq > answered_seq;
+  void readReport(const Message& m) {
+    Report& r = reports_[m.source];
+    r.generation = m.body.at("generation").get<int>();
+    r.evaluations = m.body.at("evaluations").get<uint64_t>();
+    r.migrants = m.body.at("migrants").get<uint64_t>();
+    r.remote_migrants = m.body.at("remote_migrants").get<uint64_t>();
+    r.restarts = m.body.at("restarts").get<uint64_t>();
+    r.evals_per_s = m.body.at("evals_per_s").get<double>();
+    r.received = Clock::now();
+    r.front.clear();
+    for (const auto& o : m.body.at("front")) r.front.push_back(objFromJson(o));
+  }
+
+  // Sync mode keeps migrant batches for the transport's ordered receives.
+  void pump() {
+    for (int tag : {kReport, kControl, kPart, kFinal, kMigrants}) {
+      if (sync_ && tag == kMigrants) continue;
+      while (auto m = comm_.poll(tag)) handle(*m);
     }
+    comm_.reap();
+  }
+
+  SearchProgress mergedProgress() const {
+    SearchProgress p = search_->progress();
+    Archive merged(cfg_.search.archive);
+    for (const auto& m : search_->archiveMembers()) merged.insert(m.program, m.obj);
+    const Program none;
+    for (int r = 1; r < ranks_; ++r) {
+      p.evaluations += reports_[r].evaluations;
+      p.migrants += reports_[r].migrants;
+      p.remote_migrants += reports_[r].remote_migrants;
+      p.restarts += reports_[r].restarts;
+      p.evals_per_s += reports_[r].evals_per_s;
+      for (const auto& o : reports_[r].front) merged.insert(none, o);
+    }
+    summarizeArchive(p, merged.members(), cfg_.output.progress_cost_levels);
+    p.islands = total_;
+    p.ranks = ranks_;
+    return p;
+  }
+
+  void writeCheckpoint(const std::vector<json>& states) const {
+    auto combined = combineCheckpoints(cfg_, search_->shape(), states);
+    if (!combined) {
+      warn("checkpoint not written: " + combined.error());
+      return;
+    }
+    if (auto s = writeCheckpointFile(*combined, opt_.checkpoint_path); !s)
+      warn("checkpoint not written: " + s.message());
+  }
+
+  bool checkpointDue() const {
+    return checkpoints_ && seconds(Clock::now() - last_checkpoint_) >= opt_.checkpoint_interval_s;
+  }
+
+  // Sync mode: one collective per generation says whether any rank is done, whether rank 0
+  // wants a checkpoint, and the evaluations so far; every rank draws the same conclusion.
+  // Returns whether to stop; sets *checkpoint_now.
+  bool syncRound(bool* checkpoint_now) {
+    const bool done = search_->done();
+    const bool due = rank_ == 0 && checkpointDue();
+    uint64_t in[3] = {done ? 1u : 0u, due ? 1u : 0u, search_->progress().evaluations};
+    uint64_t out[3] = {0, 0, 0};
+    comm_.allreduceSum(in, out, 3);
+    bool stop = false;
+    if (cfg_.search.max_evaluations > 0 && out[2] >= cfg_.search.max_evaluations) {
+      global_reason_ = "evaluations";
+      stop = true;
+    }
+    stop = stop || out[0] > 0;
+    if (stop && !done) told_to_stop_ = true;
+    *checkpoint_now = out[1] > 0 && !stop;
+    if (*checkpoint_now) wanted_seq_ = ++checkpoint_seq_;
+    return stop;
+  }
+
+  // Async mode, rank 0: the evaluation budget, a stop for every rank when one stopped for
+  // its own reason, and the checkpoint rounds.
+  void control() {
+    // Reports are up to report_every old: extrapolate at each rank's last rate, so the
+    // evaluation budget is not overshot by a report period's worth.
+    double evaluations = static_cast<double>(search_->progress().evaluations);
+    for (int r = 1; r < ranks_; ++r)
+      evaluations += static_cast<double>(reports_[r].evaluations) +
+                     (reports_[r].evaluations > 0
+                          ? reports_[r].evals_per_s * seconds(Clock::now() - reports_[r].received)
+                          : 0.0);
+    if (cfg_.search.max_evaluations > 0 &&
+        evaluations >= static_cast<double>(cfg_.search.max_evaluations) && global_reason_.empty()) {
+      global_reason_ = "evaluations";
+      search_->requestStop();
+    }
+    // A rank that stopped for any reason but its generation budget (which every rank
+    // reaches by itself) stops all of them.
+    std::string why = search_->done() ? search_->progress().stop_reason : "";
+    for (int r = 1; r < ranks_ && why.empty(); ++r)
+      if (!own_reasons_[r].empty() && own_reasons_[r] != "generations") why = own_reasons_[r];
+    if (!why.empty() && why != "generations" && !stop_sent_) {
+      if (!search_->done()) {
+        // Rank 0 stops for another rank's reason: that is the run's reason, not "stopped".
+        search_->requestStop();
+        if (global_reason_.empty()) global_reason_ = why;
+      }
+      for (int r = 1; r < ranks_; ++r) comm_.send(r, kControl, {{"stop", why}});
+      stop_sent_ = true;
+    }
+    if (!search_->done() && checkpointDue()) {
+      wanted_seq_ = ++checkpoint_seq_;
+      for (int r = 1; r < ranks_; ++r) comm_.send(r, kControl, {{"checkpoint", wanted_seq_}});
+      // A rank that has finished never answers: keep only the last few open rounds.
+      parts_.erase(parts_.begin(), parts_.lower_bound(wanted_seq_ - 2));
+    }
+  }
+
+  // This rank's part of checkpoint round wanted_seq_; rank 0 then writes the newest complete
+  // round (older ones are superseded).
+  void checkpointRound(bool checkpoint_now) {
     if (checkpoint_now) {
-      answered_seq = wanted_seq;
-      if (rank == 0) {
-        auto& round = parts[wanted_seq];
-        round.resize(ranks);
-        round[0] = search->checkpoint();
-        last_checkpoint = Clock::now();
+      answered_seq_ = wanted_seq_;
+      if (rank_ == 0) {
+        auto& round = parts_[wanted_seq_];
+        round.resize(ranks_);
+        round[0] = search_->checkpoint();
+        last_checkpoint_ = Clock::now();
       } else {
-        comm.send(0, kPart, {{"seq", wanted_seq}, {"state", search->checkpoint()}});
+        comm_.send(0, kPart, {{"seq", wanted_seq_}, {"state", search_->checkpoint()}});
       }
     }
-    if (rank == 0) {
-      // Write the newest complete round; older ones are superseded.
-      for (auto it = parts.rbegin(); it != parts.rend(); ++it) {
-        const bool complete = std::all_of(it->second.begin(), it->second.end(),
-                                          [](const json& j) { return !j.is_null(); });
-        if (!complete) continue;
-        writeCheckpoint(it->second);
-        parts.erase(parts.begin(), it.base());
-        break;
-      }
+    if (rank_ != 0) return;
+    for (auto it = parts_.rbegin(); it != parts_.rend(); ++it) {
+      const bool complete = std::all_of(it->second.begin(), it->second.end(),
+                                        [](const json& j) { return !j.is_null(); });
+      if (!complete) continue;
+      writeCheckpoint(it->second);
+      parts_.erase(parts_.begin(), it.base());
+      break;
     }
-    if (stop) break;
-    search->step(!sync);
+  }
+
+  // After a generation: the other ranks report to rank 0, which reports the merged progress.
+  void report() {
     const auto now = Clock::now();
-    if (rank != 0 && seconds(now - last_report) >= report_every) {
-      json r = reportOf(*search);
+    if (rank_ != 0 && seconds(now - last_report_) >= report_every_) {
+      json r = reportOf(*search_);
       json front = json::array();
-      for (const auto& m : search->archiveMembers()) front.push_back(objToJson(m.obj));
+      for (const auto& m : search_->archiveMembers()) front.push_back(objToJson(m.obj));
       r["front"] = std::move(front);
-      comm.send(0, kReport, r);
-      last_report = now;
+      comm_.send(0, kReport, r);
+      last_report_ = now;
     }
-    if (rank == 0 && opt.on_progress &&
-        seconds(now - last_progress) >= cfg.output.progress_interval_s) {
-      opt.on_progress(mergedProgress());
-      last_progress = now;
+    if (rank_ == 0 && opt_.on_progress &&
+        seconds(now - last_progress_) >= cfg_.output.progress_interval_s) {
+      opt_.on_progress(mergedProgress());
+      last_progress_ = now;
+    }
+  }
+
+  void loop() {
+    reports_.resize(ranks_);
+    finals_.resize(ranks_);
+    stats_.resize(ranks_);
+    own_reasons_.resize(ranks_);
+    report_every_ = std::clamp(cfg_.output.progress_interval_s, 0.1, 1.0);
+    last_report_ = last_progress_ = last_checkpoint_ = Clock::now();
+    while (true) {
+      pump();
+      bool stop = false, checkpoint_now = false;
+      if (sync_) {
+        stop = syncRound(&checkpoint_now);
+      } else {
+        if (rank_ == 0) control();
+        stop = search_->done();
+        checkpoint_now = !stop && wanted_seq_ > answered_seq_;
+      }
+      checkpointRound(checkpoint_now);
+      if (stop) break;
+      search_->step(!sync_);
+      report();
     }
   }
 
   // The end: every rank's final state goes to rank 0, then nothing may stay in flight.
-  const std::string own = told_to_stop ? "" : search->progress().stop_reason;
-  json state = search->checkpoint();
-  if (opt.on_search) opt.on_search(nullptr);
-  // Time in MPI calls up to here (the drain below waits for the slowest rank to finish).
-  json mine = {{"rank", rank},
-               {"generation", search->progress().generation},
-               {"elapsed_s", seconds(Clock::now() - started)},
-               {"comm_s", comm.busySeconds()},
-               {"messages", comm.messagesSent()},
-               {"bytes", comm.bytesSent()},
-               {"migrant_batches", mig->batches()},
-               {"migrant_bytes", mig->batchBytes()}};
-  if (rank == 0) {
-    finals[0] = std::move(state);
-    own_reasons[0] = own;
-    stats[0] = std::move(mine);
-  } else {
-    comm.send(0, kFinal, {{"state", std::move(state)}, {"reason", own}, {"stats", mine}});
+  Expected<DistributedResult> finish() {
+    const std::string own = told_to_stop_ ? "" : search_->progress().stop_reason;
+    json state = search_->checkpoint();
+    if (opt_.on_search) opt_.on_search(nullptr);
+    // Time in MPI calls up to here (the drain below waits for the slowest rank to finish).
+    json mine = {{"rank", rank_},
+                 {"generation", search_->progress().generation},
+                 {"elapsed_s", seconds(Clock::now() - started_)},
+                 {"comm_s", comm_.busySeconds()},
+                 {"messages", comm_.messagesSent()},
+                 {"bytes", comm_.bytesSent()},
+                 {"migrant_batches", mig_->batches()},
+                 {"migrant_bytes", mig_->batchBytes()}};
+    if (rank_ == 0) {
+      finals_[0] = std::move(state);
+      own_reasons_[0] = own;
+      stats_[0] = std::move(mine);
+    } else {
+      comm_.send(0, kFinal, {{"state", std::move(state)}, {"reason", own}, {"stats", mine}});
+    }
+    comm_.drain([this](Message& m) { handle(m); });
+    if (rank_ != 0) return DistributedResult{};
+    return assemble();
   }
-  comm.drain(handle);
-  if (rank != 0) return DistributedResult{};
 
-  for (int r = 0; r < ranks; ++r)
-    if (finals[r].is_null())
-      return Status::error("rank " + std::to_string(r) + " sent no final state");
-  auto combined = combineCheckpoints(cfg, search->shape(), finals);
-  if (!combined) return combined.status();
-  if (checkpoints) {
-    if (auto s = writeCheckpointFile(*combined, opt.checkpoint_path); !s)
-      warn("final checkpoint not written: " + s.message());
+  // Rank 0: the whole run's search from the final states, its reason and the MPI statistics.
+  Expected<DistributedResult> assemble() {
+    for (int r = 0; r < ranks_; ++r)
+      if (finals_[r].is_null())
+        return Status::error("rank " + std::to_string(r) + " sent no final state");
+    auto combined = combineCheckpoints(cfg_, search_->shape(), finals_);
+    if (!combined) return combined.status();
+    if (checkpoints_) {
+      if (auto s = writeCheckpointFile(*combined, opt_.checkpoint_path); !s)
+        warn("final checkpoint not written: " + s.message());
+    }
+    std::string reason = global_reason_;
+    for (int r = 0; r < ranks_ && reason.empty(); ++r) reason = own_reasons_[r];
+    if (reason.empty()) reason = "stopped";
+    DistributedResult out;
+    out.search = std::make_unique<Search>(cfg_, table_);
+    auto& result = out.search;
+    if (auto s = result->restore(*combined); !s) return s;
+    result->setRanks(ranks_);
+    result->setStopReason(reason);
+    double comm_s = 0, elapsed_s = 0;
+    for (const auto& st : stats_) {
+      comm_s += st.value("comm_s", 0.0);
+      elapsed_s += st.value("elapsed_s", 0.0);
+    }
+    out.stats = {{"migration", std::string(toString(cfg_.mpi.migration))},
+                 {"comm_share", elapsed_s > 0 ? comm_s / elapsed_s : 0.0},
+                 {"ranks", stats_}};
+    if (opt_.on_progress) {
+      SearchProgress p = result->progress();
+      p.evals_per_s = p.elapsed_s > 0 ? static_cast<double>(p.evaluations) / p.elapsed_s : 0;
+      opt_.on_progress(p);
+    }
+    return out;
   }
-  std::string reason = global_reason;
-  for (int r = 0; r < ranks && reason.empty(); ++r) reason = own_reasons[r];
-  if (reason.empty()) reason = "stopped";
-  DistributedResult out;
-  out.search = std::make_unique<Search>(cfg, table);
-  auto& result = out.search;
-  if (auto s = result->restore(*combined); !s) return s;
-  result->setRanks(ranks);
-  result->setStopReason(reason);
-  double comm_s = 0, elapsed_s = 0;
-  for (const auto& st : stats) {
-    comm_s += st.value("comm_s", 0.0);
-    elapsed_s += st.value("elapsed_s", 0.0);
-  }
-  out.stats = {{"migration", std::string(toString(cfg.mpi.migration))},
-               {"comm_share", elapsed_s > 0 ? comm_s / elapsed_s : 0.0},
-               {"ranks", stats}};
-  if (opt.on_progress) {
-    SearchProgress p = result->progress();
-    p.evals_per_s = p.elapsed_s > 0 ? static_cast<double>(p.evaluations) / p.elapsed_s : 0;
-    opt.on_progress(p);
-  }
-  return out;
+
+  const Clock::time_point started_ = Clock::now();
+  RunConfig cfg_;
+  const Table& table_;
+  DistributedOptions opt_;
+  Comm comm_;
+  const int rank_, ranks_;
+  const bool sync_;
+  const bool checkpoints_;
+  json resume_state_;
+  int total_ = 0, first_ = 0, count_ = 0;
+  std::vector<int> owner_;  // island -> rank
+  std::unique_ptr<Search> search_;
+  MpiTransport* mig_ = nullptr;  // owned by search_
+
+  // Rank 0's view of the others.
+  std::vector<Report> reports_;
+  std::map<int, std::vector<json>> parts_;  // checkpoint round -> state per rank
+  std::vector<json> finals_, stats_;
+  std::vector<std::string> own_reasons_;  // why each rank stopped on its own ("" = told)
+  std::string global_reason_;             // set when rank 0 stops everyone
+  bool told_to_stop_ = false, stop_sent_ = false;
+  int checkpoint_seq_ = 0, answered_seq_ = 0, wanted_seq_ = 0;
+  double report_every_ = 1;
+  Clock::time_point last_report_, last_progress_, last_checkpoint_;
+};
+
+}  // namespace
+
+Expected<DistributedResult> runDistributed(RunConfig cfg, const Table& table,
+                                           DistributedOptions opt) {
+  return Driver(std::move(cfg), table, std::move(opt)).run();
 }
 
 }  // namespace lgp::mpi

@@ -329,8 +329,4 @@ class Search {
 // say why it cannot fit (too long, too many constants, an operator the run does not allow).
 Expected<Program> fitToShape(const Program& p, const ProgramShape& shape);
 
-// Loads the table a config names (data.path). Scenes are resolved by the frontends, which
-// link the datasets library; this returns an error for them.
-Expected<Table> loadTableFile(const DataConfig& data, const std::filesystem::path& base_dir);
-
 }  // namespace lgp

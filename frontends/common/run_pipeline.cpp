@@ -1,8 +1,9 @@
-#include "run_extras.hpp"
+#include "run_pipeline.hpp"
 
 #include <chrono>
 #include <cstdio>
 
+#include "lgp/io/result.hpp"
 #include "lgp/search/exhaustive.hpp"
 
 #ifdef LGP_HAVE_EMIT
@@ -12,7 +13,10 @@
 
 namespace lgp::cli {
 
-Status checkRunReferences(const RunConfig& cfg, const Table& t) {
+namespace {
+
+// Before the search: the references parse and fit the table (not after a night's work).
+Status checkReferences(const RunConfig& cfg, const Table& t) {
 #ifdef LGP_HAVE_EMIT
   return emit::checkReferences(cfg, t);
 #else
@@ -33,7 +37,8 @@ Expected<std::vector<NamedProgram>> referenceSeeds(const RunConfig& cfg, const T
 #endif
 }
 
-Status checkRunMode(const RunConfig& cfg, bool has_seeds, bool distributed) {
+// What a two-step or MPI run cannot do.
+Status checkMode(const RunConfig& cfg, bool has_seeds, bool distributed) {
   const bool two_step = cfg.search.multi_output.mode == MultiOutputMode::TwoStep;
   if (two_step && has_seeds)
     return Status::error("/search/seed_references: not available with two_step");
@@ -55,6 +60,7 @@ Status enableArchiveMeasuredCost(Search& s) {
 #endif
 }
 
+// search.exhaustive: the certificate, with "seeded", or null when the config does not ask.
 Expected<nlohmann::json> runExhaustive(Search& s) {
   if (s.config().search.exhaustive.max_ops <= 0) return nlohmann::json();
   auto res = exhaustiveSearch(s.config(), s.table());
@@ -68,6 +74,39 @@ Expected<nlohmann::json> runExhaustive(Search& s) {
   return cert;
 }
 
+}  // namespace
+
+Expected<std::vector<NamedProgram>> prepareRun(const RunConfig& cfg, const Table& t, bool resume,
+                                               bool distributed) {
+  if (auto st = checkReferences(cfg, t); !st) return st;
+  std::vector<NamedProgram> seeds;
+  if (!resume) {
+    auto progs = referenceSeeds(cfg, t);
+    if (!progs) return progs.status();
+    seeds = std::move(*progs);
+  }
+  if (auto st = checkMode(cfg, !seeds.empty(), distributed); !st) return st;
+  return seeds;
+}
+
+Expected<SearchStart> startSearch(Search& s, const std::vector<NamedProgram>& seeds, bool fresh) {
+  if (auto st = enableArchiveMeasuredCost(s); !st) return st;
+  SearchStart start;
+  start.not_seeded = s.addSeeds(seeds);
+  if (fresh) {
+    auto cert = runExhaustive(s);
+    if (!cert) return cert.status();
+    start.exhaustive = std::move(*cert);
+  }
+  return start;
+}
+
+nlohmann::json frontJson(const Search& s, const nlohmann::json& exhaustive) {
+  nlohmann::json j = frontToJson(s, s.front());
+  if (!exhaustive.is_null()) j["exhaustive"] = exhaustive;
+  return j;
+}
+
 std::string emptyFrontMessage(const Search& s) {
   const auto p = s.progress();
   return "the search ended with an empty front: " +
@@ -79,15 +118,23 @@ std::string emptyFrontMessage(const Search& s) {
                     "overflow the float32 evaluation or its sums");
 }
 
-std::string addFrontExtras(nlohmann::json& front, const Search& s) {
+FrontExtras::FrontExtras(const RunConfig& cfg, const Table& t)
+    : families_(cfg.objectives.measured_cost.families) {
 #ifdef LGP_HAVE_EMIT
-  const RunConfig& cfg = s.config();
-  if (!cfg.references.empty()) front["references"] = emit::scoreReferences(cfg, s.table());
-  if (cfg.objectives.measured_cost.families.empty()) return "";
+  if (!cfg.references.empty()) references_ = emit::scoreReferences(cfg, t);
+#else
+  (void)t;
+#endif
+}
+
+std::string FrontExtras::addTo(nlohmann::json& front) const {
+#ifdef LGP_HAVE_EMIT
+  if (!references_.is_null()) front["references"] = references_;
+  if (families_.empty()) return "";
   // Every member and reference compiled to AMD ISA (emit/gpu_cost.hpp); a machine without the
   // backend still gets its front, with the reason recorded.
   emit::MeasureOptions mo;
-  mo.families = cfg.objectives.measured_cost.families;
+  mo.families = families_;
   const auto t0 = std::chrono::steady_clock::now();
   emit::addMeasuredCost(front, mo);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -100,7 +147,6 @@ std::string addFrontExtras(nlohmann::json& front, const Search& s) {
          info["families"].dump() + b;
 #else
   (void)front;
-  (void)s;
   return "";
 #endif
 }
