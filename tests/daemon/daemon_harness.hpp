@@ -226,6 +226,10 @@ class Daemon {
   json waitFor(const std::string& id, const std::function<bool(const json&)>& pred,
                double timeout_s = 120) const {
     json last;
+    // LGP_TEST_TIME_SCALE (scripts/sanitize.sh sets it): an unoptimised, instrumented lgpd
+    // runs the same generations many times slower; the deadline is a hang guard, not a bound.
+    if (const char* k = std::getenv("LGP_TEST_TIME_SCALE"); k && std::atof(k) > 1)
+      timeout_s *= std::atof(k);
     const int steps = static_cast<int>(timeout_s / 0.02);
     for (int i = 0; i < steps; ++i) {
       Reply r = get("/api/v1/runs/" + id);

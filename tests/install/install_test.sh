@@ -29,7 +29,10 @@ cp -r "$consumer" "$work/consumer"
 if [[ -n "$python" ]]; then
   pydir="$(find "$work/prefix/lib" -maxdepth 3 -type d -path '*/site-packages/lgp' | head -1)"
   [[ -n "$pydir" ]] || { echo "install_test: the Python package was not installed" >&2; exit 1; }
-  (cd "$work" && PYTHONPATH="$(dirname "$pydir")" "$python" -c '
+  # LGP_PYTHON_PRELOAD: the sanitizer runtimes in a sanitizer build (tests/install/CMakeLists.txt).
+  preload=()
+  if [[ -n "${LGP_PYTHON_PRELOAD:-}" ]]; then preload=("LD_PRELOAD=$LGP_PYTHON_PRELOAD"); fi
+  (cd "$work" && env "${preload[@]}" PYTHONPATH="$(dirname "$pydir")" "$python" -c '
 import numpy as np, lgp
 assert lgp.__file__.startswith("'"$work"'/prefix/"), lgp.__file__
 x = np.linspace(0, 1, 64).reshape(-1, 1)
