@@ -228,8 +228,8 @@ class Daemon {
     json last;
     // LGP_TEST_TIME_SCALE (scripts/sanitize.sh sets it): an unoptimised, instrumented lgpd
     // runs the same generations many times slower; the deadline is a hang guard, not a bound.
-    if (const char* k = std::getenv("LGP_TEST_TIME_SCALE"); k && std::atof(k) > 1)
-      timeout_s *= std::atof(k);
+    const char* k = std::getenv("LGP_TEST_TIME_SCALE");
+    if (const double scale = k ? std::atof(k) : 1; scale > 1) timeout_s *= scale;
     const int steps = static_cast<int>(timeout_s / 0.02);
     for (int i = 0; i < steps; ++i) {
       Reply r = get("/api/v1/runs/" + id);
