@@ -71,6 +71,9 @@ std::string summary(const std::vector<TableRun>& runs, const RunInfo& info) {
        "error on a held-out grid (every error channel). Median improvement at the fit's ISA: "
     << fmt(median(rms)) << "x in RMS, " << fmt(median(mx)) << "x in max error (fit / lgp, the "
     << "worst channel).";
+  if (!info.missing.empty())
+    s << " (" << runs.size() << " of " << runs.size() + info.missing.size()
+      << " tables run so far.)";
   if (info.quick) s << " (A --quick run: a structure check, not the board.)";
   return s.str();
 }
@@ -149,17 +152,24 @@ std::string writeReport(const std::vector<TableRun>& runs, const RunInfo& info,
      << "instructions (Mesa ACO, RADV null device). Each lgp cell is the member at or below the "
      << "fit's ISA that comes closest to beating it; (x a / x b) = fit / lgp for RMS and max, the "
      << "worst channel. Machine: " << info.cpu << "; wall " << fmt(info.wall_s, "%.0f")
-     << " s, CPU " << fmt(info.cpu_s, "%.0f") << " s.\n\n";
+     << " s, CPU " << fmt(info.cpu_s, "%.0f") << " s (summed over the tables' runs).\n\n";
+  auto names = [](const std::vector<std::string>& v) {
+    std::string t;
+    for (const auto& n : v) t += (t.empty() ? "`" : ", `") + n + "`";
+    return t;
+  };
+  if (!info.missing.empty())
+    md << "**Not yet run** (no record with these settings in `tables/`): " << names(info.missing)
+       << ". The summary above covers the tables below only.\n\n";
+  if (!info.other_settings.empty())
+    md << "Left out, run with other settings (seed, threads, budgets or --quick): "
+       << names(info.other_settings) << ".\n\n";
   boardTable(md, runs, info);
   for (const auto& r : runs) tableSection(md, r);
   std::ofstream(dir / "report.md") << md.str();
-  json s = {{"summary", sum},
-            {"quick", info.quick},
-            {"seed", info.seed},
-            {"threads", info.threads},
-            {"minutes", info.minutes},
-            {"rows", json::array()},
-            {"recommended", json::object()}};
+  json s = {{"summary", sum},        {"missing", info.missing},      {"quick", info.quick},
+            {"seed", info.seed},     {"threads", info.threads},      {"minutes", info.minutes},
+            {"rows", json::array()}, {"recommended", json::object()}};
   json timing = {{"cpu", info.cpu},
                  {"wall_s", info.wall_s},
                  {"cpu_s", info.cpu_s},

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "board.hpp"
 
@@ -13,8 +14,10 @@ struct RunInfo {
   int threads = 2;
   uint64_t seed = 1;
   std::vector<double> minutes;
-  std::string cpu;  // the CPU model
-  double wall_s = 0, cpu_s = 0;
+  std::string cpu;                          // the CPU model(s) of the tables' runs
+  double wall_s = 0, cpu_s = 0;             // summed over the tables' runs
+  std::vector<std::string> missing;         // tables of the spec without a record yet
+  std::vector<std::string> other_settings;  // records run with other settings, left out
 };
 
 // Writes the three files; returns the one-paragraph summary (also at the top of report.md).

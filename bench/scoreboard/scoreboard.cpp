@@ -15,6 +15,7 @@
 #include "board.hpp"
 #include "cli_args.hpp"
 #include "lgp/config/json_reader.hpp"
+#include "record.hpp"
 #include "report.hpp"
 
 namespace fs = std::filesystem;
@@ -76,6 +77,54 @@ int check(const std::vector<TableRun>& runs) {
   }
   return bad ? 1 : 0;
 }
+// report.md, summary.json and timing.json from every record in `out` run with `settings`, in the
+// spec's order (tables the spec no longer names last). False when there is none.
+bool report(const std::vector<TableSpec>& specs, const RecordSettings& settings,
+            const fs::path& out) {
+  std::vector<std::string> skipped;
+  auto records = readRecords(out, skipped);
+  for (const auto& s : skipped)
+    std::fprintf(stderr, "lgp_scoreboard: record left out: %s\n", s.c_str());
+  RunInfo info;
+  info.quick = settings.quick;
+  info.threads = settings.threads;
+  info.seed = settings.seed;
+  info.minutes = settings.minutes;
+  std::vector<TableRun> runs;
+  std::set<std::string> cpus;
+  std::vector<bool> taken(records.size(), false);
+  auto take = [&](size_t i) {
+    runs.push_back(std::move(records[i].run));
+    info.wall_s += records[i].timing.wall_s;
+    info.cpu_s += records[i].timing.cpu_s;
+    cpus.insert(records[i].timing.cpu);
+    taken[i] = true;
+  };
+  for (const auto& spec : specs) {
+    size_t i = 0;
+    while (i < records.size() &&
+           !(records[i].settings == settings && records[i].run.spec.name == spec.name))
+      ++i;
+    if (i < records.size())
+      take(i);
+    else
+      info.missing.push_back(spec.name);
+  }
+  for (size_t i = 0; i < records.size(); ++i)
+    if (!taken[i]) {
+      if (records[i].settings == settings)
+        take(i);
+      else
+        info.other_settings.push_back(records[i].run.spec.name);
+    }
+  if (runs.empty()) return false;
+  for (const auto& c : cpus) info.cpu += (info.cpu.empty() ? "" : "; ") + c;
+  if (fs::exists(out / "operon.json")) addOperon(runs, readJson(out / "operon.json"));
+  const std::string sum = writeReport(runs, info, out);
+  std::printf("%s\nreport: %s (%zu tables; wall %.1f s, CPU %.1f s, %s)\n", sum.c_str(),
+              (out / "report.md").c_str(), runs.size(), info.wall_s, info.cpu_s, info.cpu.c_str());
+  return true;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -93,18 +142,19 @@ int main(int argc, char** argv) {
       "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))(
       "cache-dir", "table cache (default: lgp data's)", cxxopts::value<std::string>())(
       "no-vulkan", "do not run the recommended members on lavapipe")(
+      "report-only", "run nothing: rebuild the report from the folder's table records")(
       "check",
       "exit 1 unless every row has a measured ISA and a held-out error (77: no GPU backend)")(
       "h,help", "help");
   auto parsed = lgp::cli::parseArgs(opts, argc, argv, "", "");
   if (const int* code = std::get_if<int>(&parsed)) return *code;
   const cxxopts::ParseResult& args = std::get<cxxopts::ParseResult>(parsed);
-  const auto t0 = std::chrono::steady_clock::now();
   Options o;
   o.quick = args.count("quick") > 0;
   o.threads = args["threads"].as<int>();
   o.seed = args["seed"].as<uint64_t>();
   o.vulkan = !args.count("no-vulkan");
+  const bool report_only = args.count("report-only") > 0;
   if (args.count("cache-dir")) o.cache_dir = args["cache-dir"].as<std::string>();
   o.minutes.clear();
   {
@@ -126,9 +176,21 @@ int main(int argc, char** argv) {
   const auto specs = parseSpec(readJson(spec_path), spec_path.string());
   const fs::path out = args["out"].as<std::string>();
   fs::create_directories(out);
+  // The Operon figures stay with the board: a later table-by-table invocation keeps them.
+  if (args.count("operon")) {
+    const json operon = readJson(args["operon"].as<std::string>());
+    std::ofstream(out / "operon.json") << operon.dump(1) << "\n";
+  }
+  const RecordSettings settings{o.quick, o.threads, o.seed, o.minutes};
   std::vector<TableRun> runs;
+  for (const auto& name : only)
+    if (std::none_of(specs.begin(), specs.end(),
+                     [&](const TableSpec& t) { return t.name == name; }))
+      die("--tables: '" + name + "' is not a table of the spec");
   for (const auto& spec : specs) {
-    if (!only.empty() && !only.count(spec.name)) continue;
+    if (report_only || (!only.empty() && !only.count(spec.name))) continue;
+    const auto tw = std::chrono::steady_clock::now();
+    const double tc = cpuSeconds();
     TableRun r;
     r.spec = spec;
     const fs::path cfg_path = spec_path.parent_path() / spec.config;
@@ -143,20 +205,18 @@ int main(int argc, char** argv) {
                  o.minutes.back());
     if (auto st = runTable(r, o); !st) die(spec.name + ": " + st.message());
     recommend(r, out, o);
+    const RecordTiming timing{
+        cpuModel(), std::chrono::duration<double>(std::chrono::steady_clock::now() - tw).count(),
+        cpuSeconds() - tc};
+    writeRecord(r, settings, timing, out);
+    // The report after every table: a board stopped part way shows what it has.
+    report(specs, settings, out);
     runs.push_back(std::move(r));
   }
-  if (runs.empty()) die("no table selected");
-  if (args.count("operon")) addOperon(runs, readJson(args["operon"].as<std::string>()));
-  RunInfo info;
-  info.quick = o.quick;
-  info.threads = o.threads;
-  info.seed = o.seed;
-  info.minutes = o.minutes;
-  info.cpu = cpuModel();
-  info.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  info.cpu_s = cpuSeconds();
-  const std::string sum = writeReport(runs, info, out);
-  std::printf("%s\nreport: %s (wall %.1f s, CPU %.1f s, %s)\n", sum.c_str(),
-              (out / "report.md").c_str(), info.wall_s, info.cpu_s, info.cpu.c_str());
+  if (report_only) {
+    if (!report(specs, settings, out)) die(out.string() + ": no record with these settings");
+  } else if (runs.empty()) {
+    die("no table selected");
+  }
   return args.count("check") ? check(runs) : 0;
 }

@@ -1,0 +1,210 @@
+#include "record.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "lgp/config/json_reader.hpp"
+
+namespace lgp::board {
+
+namespace {
+using nlohmann::json;
+constexpr const char* kFormat = "lgp-scoreboard-table/1";
+
+// JSON has no NaN or infinity (nlohmann writes null); both read back as NaN, except an
+// infinite factor, kept as the string "inf" so that a perfect member stays "beaten".
+json number(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return v;
+}
+double number(const json& j) {
+  if (j.is_number()) return j.get<double>();
+  if (j.is_string()) return j == "inf" ? INFINITY : j == "-inf" ? -INFINITY : NAN;
+  return NAN;
+}
+
+json scoredJson(const Scored& s) {
+  json ch = json::array();
+  for (const auto& c : s.channels)
+    ch.push_back({{"rmse", number(c.rmse)}, {"max_abs", number(c.max_abs)}});
+  return {{"name", s.name},
+          {"isa_rdna2", number(s.isa)},
+          {"model_cost", number(s.model_cost)},
+          {"heldout", ch},
+          {"formula", s.formula}};
+}
+Scored scoredFrom(const json& j) {
+  Scored s;
+  s.name = j.at("name").get<std::string>();
+  s.isa = number(j.at("isa_rdna2"));
+  s.model_cost = number(j.at("model_cost"));
+  for (const auto& c : j.at("heldout"))
+    s.channels.push_back({number(c.at("rmse")), number(c.at("max_abs"))});
+  s.formula = j.at("formula").get<std::string>();
+  return s;
+}
+
+std::string minutesTag(double m) {
+  std::ostringstream s;
+  s << m;
+  return s.str();
+}
+
+Record recordFrom(const json& j) {
+  if (j.value("format", std::string()) != kFormat)
+    throw std::runtime_error(std::string("/format: not ") + kFormat);
+  Record rec;
+  const json& s = j.at("settings");
+  rec.settings.quick = s.at("quick").get<bool>();
+  rec.settings.threads = s.at("threads").get<int>();
+  rec.settings.seed = s.at("seed").get<uint64_t>();
+  rec.settings.minutes = s.at("minutes").get<std::vector<double>>();
+  const json& t = j.at("timing");
+  rec.timing.cpu = t.at("cpu").get<std::string>();
+  rec.timing.wall_s = number(t.at("wall_s"));
+  rec.timing.cpu_s = number(t.at("cpu_s"));
+  TableRun& r = rec.run;
+  const json& sp = j.at("spec");
+  r.spec.name = sp.at("name").get<std::string>();
+  r.spec.title = sp.at("title").get<std::string>();
+  r.spec.config = sp.at("config").get<std::string>();
+  r.spec.evals_per_minute = number(sp.at("evals_per_minute"));
+  r.spec.fits = sp.at("fits").get<std::vector<std::string>>();
+  r.channels = j.at("channels").get<std::vector<std::string>>();
+  r.train_desc = j.at("train_grid").get<std::string>();
+  r.heldout_desc = j.at("heldout_grid").get<std::string>();
+  r.measured = j.at("measured").get<bool>();
+  r.measure_note = j.at("measure_note").get<std::string>();
+  r.table_wall_s = number(t.at("table_s"));
+  r.search_wall_s = number(t.at("search_s"));
+  for (const auto& sn : j.at("snapshots")) {
+    Snapshot x;
+    x.minutes = number(sn.at("minutes"));
+    x.evaluations = sn.at("evaluations").get<uint64_t>();
+    x.wall_s = number(sn.at("wall_s"));
+    for (const auto& m : sn.at("members")) x.members.push_back(scoredFrom(m));
+    r.snaps.push_back(std::move(x));
+  }
+  for (const auto& f : j.at("fits")) r.fits.push_back(scoredFrom(f));
+  for (const auto& row : j.at("rows")) {
+    Row x;
+    x.table = r.spec.name;
+    x.fit = row.at("fit").get<std::string>();
+    x.published = scoredFrom(row.at("published"));
+    for (const auto& m : row.at("lgp")) {
+      Match y;
+      y.member = m.at("member").get<int>();
+      if (y.member >= 0) y.m = scoredFrom(m.at("scored"));
+      y.rms_factor = number(m.at("rms_factor"));
+      y.max_factor = number(m.at("max_factor"));
+      y.beaten = m.at("beaten").get<bool>();
+      x.lgp.push_back(std::move(y));
+    }
+    if (x.lgp.size() != r.snaps.size())
+      throw std::runtime_error("/rows: a row has " + std::to_string(x.lgp.size()) +
+                               " budgets, the record " + std::to_string(r.snaps.size()));
+    r.rows.push_back(std::move(x));
+  }
+  r.recommended = j.at("recommended");
+  return rec;
+}
+}  // namespace
+
+void writeRecord(const TableRun& r, const RecordSettings& s, const RecordTiming& t,
+                 const std::filesystem::path& dir) {
+  const auto tables = dir / "tables";
+  std::filesystem::create_directories(tables);
+  json snaps = json::array();
+  for (const auto& sn : r.snaps) {
+    json members = json::array();
+    for (const auto& m : sn.members) members.push_back(scoredJson(m));
+    snaps.push_back({{"minutes", sn.minutes},
+                     {"evaluations", sn.evaluations},
+                     {"wall_s", sn.wall_s},
+                     {"members", members}});
+    std::ofstream(tables / (r.spec.name + ".front." + minutesTag(sn.minutes) + "min.json"))
+        << sn.front.dump(1) << "\n";
+  }
+  json fits = json::array();
+  for (const auto& f : r.fits) fits.push_back(scoredJson(f));
+  json rows = json::array();
+  for (const auto& row : r.rows) {
+    json lgp = json::array();
+    for (const auto& m : row.lgp)
+      lgp.push_back({{"member", m.member},
+                     {"scored", m.member >= 0 ? scoredJson(m.m) : json(nullptr)},
+                     {"rms_factor", number(m.rms_factor)},
+                     {"max_factor", number(m.max_factor)},
+                     {"beaten", m.beaten}});
+    rows.push_back({{"fit", row.fit}, {"published", scoredJson(row.published)}, {"lgp", lgp}});
+  }
+  const json j = {
+      {"format", kFormat},
+      {"settings",
+       {{"quick", s.quick}, {"threads", s.threads}, {"seed", s.seed}, {"minutes", s.minutes}}},
+      {"spec",
+       {{"name", r.spec.name},
+        {"title", r.spec.title},
+        {"config", r.spec.config},
+        {"evals_per_minute", r.spec.evals_per_minute},
+        {"fits", r.spec.fits}}},
+      {"timing",
+       {{"cpu", t.cpu},
+        {"wall_s", t.wall_s},
+        {"cpu_s", t.cpu_s},
+        {"table_s", r.table_wall_s},
+        {"search_s", r.search_wall_s}}},
+      {"channels", r.channels},
+      {"train_grid", r.train_desc},
+      {"heldout_grid", r.heldout_desc},
+      {"measured", r.measured},
+      {"measure_note", r.measure_note},
+      {"snapshots", snaps},
+      {"fits", fits},
+      {"rows", rows},
+      {"recommended", r.recommended}};
+  // Written beside and renamed over: a run stopped while writing leaves the old record whole.
+  const auto path = tables / (r.spec.name + ".json");
+  const auto tmp = tables / (r.spec.name + ".json.tmp");
+  std::ofstream(tmp) << j.dump(1) << "\n";
+  std::filesystem::rename(tmp, path);
+}
+
+std::vector<Record> readRecords(const std::filesystem::path& dir,
+                                std::vector<std::string>& skipped) {
+  std::vector<Record> out;
+  const auto tables = dir / "tables";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(tables, ec)) return out;
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(tables, ec)) {
+    const std::string n = e.path().filename().string();
+    if (e.path().extension() == ".json" && n.find(".front.") == std::string::npos)
+      files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const auto& f : files) {
+    std::ifstream in(f);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    auto j = parseJson(ss.str());
+    if (!j) {
+      skipped.push_back(f.string() + ": " + j.error());
+      continue;
+    }
+    try {
+      Record rec = recordFrom(*j);
+      if (rec.run.spec.name + ".json" != f.filename().string())
+        throw std::runtime_error("/spec/name: '" + rec.run.spec.name + "' is not the file's name");
+      out.push_back(std::move(rec));
+    } catch (const std::exception& e) {
+      skipped.push_back(f.string() + ": " + e.what());
+    }
+  }
+  return out;
+}
+
+}  // namespace lgp::board

@@ -1,0 +1,43 @@
+// A table's record on disk (<out>/tables/<name>.json): everything the report shows of one table
+// run, so a board can be run table by table (one invocation, or one session, per table) and its
+// report rebuilt from every record in the folder.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "board.hpp"
+
+namespace lgp::board {
+
+// What a record was run with; only records run with the same settings share a report.
+struct RecordSettings {
+  bool quick = false;
+  int threads = 2;
+  uint64_t seed = 1;
+  std::vector<double> minutes;
+  bool operator==(const RecordSettings&) const = default;
+};
+
+// The resources one table took (its share of the report's wall and CPU time).
+struct RecordTiming {
+  std::string cpu;  // the CPU model
+  double wall_s = 0, cpu_s = 0;
+};
+
+struct Record {
+  RecordSettings settings;
+  RecordTiming timing;
+  TableRun run;  // without the tables, fronts and config: what the report reads
+};
+
+// Writes <dir>/tables/<name>.json and the front of every budget beside it
+// (<name>.front.<minutes>min.json, lgp-front/1 with measured costs: `lgp front` reads it).
+void writeRecord(const TableRun& r, const RecordSettings& s, const RecordTiming& t,
+                 const std::filesystem::path& dir);
+// Every record in <dir>/tables; a file that is not a record is reported (`skipped`) and left out.
+std::vector<Record> readRecords(const std::filesystem::path& dir,
+                                std::vector<std::string>& skipped);
+
+}  // namespace lgp::board

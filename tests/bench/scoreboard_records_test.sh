@@ -1,0 +1,40 @@
+#!/bin/bash
+# The scoreboard run table by table (issue 32): records in <out>/tables make the same board as
+# one invocation over the same tables; --report-only rebuilds it; records with other settings
+# and broken records are left out with a message, never a crash.
+# Usage: scoreboard_records_test.sh <lgp_scoreboard>
+set -u
+SB=$1
+W=$(mktemp -d)
+trap 'rm -rf "$W"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+run() { "$SB" --quick --no-vulkan --cache-dir "$W/cache" "$@" >"$W/out.txt" 2>"$W/err.txt"; }
+
+run --tables sheen,fresnel_avg --out "$W/one" || fail "one invocation: $(cat "$W/err.txt")"
+run --tables fresnel_avg --out "$W/two" || fail "fresnel_avg alone: $(cat "$W/err.txt")"
+grep -q "Not yet run.*sheen" "$W/two/report.md" || fail "a partial board does not name what is missing"
+grep -q "1 of 10 tables run so far" "$W/two/report.md" || fail "a partial board's summary does not say so"
+run --tables sheen --out "$W/two" || fail "sheen alone: $(cat "$W/err.txt")"
+cmp -s "$W/one/summary.json" "$W/two/summary.json" ||
+  fail "table by table differs from one invocation: $(diff "$W/one/summary.json" "$W/two/summary.json" | head -20)"
+for t in sheen fresnel_avg; do
+  test -s "$W/two/tables/$t.json" || fail "no record for $t"
+  test -s "$W/two/tables/$t.front.0.005min.json" || fail "no front for $t at 0.005 min"
+done
+
+rm "$W/two/summary.json" "$W/two/report.md"
+run --report-only --out "$W/two" || fail "--report-only: $(cat "$W/err.txt")"
+cmp -s "$W/one/summary.json" "$W/two/summary.json" || fail "--report-only rebuilds another board"
+grep -q "| sheen | MaterialX sheen albedo |" "$W/two/report.md" || fail "--report-only lost a row"
+
+run --report-only --seed 2 --out "$W/two" && fail "--report-only with no matching record succeeded"
+grep -q "no record with these settings" "$W/err.txt" || fail "no reason given: $(cat "$W/err.txt")"
+
+echo '{"format": "lgp-scoreboard-table/1", "spec": {' >"$W/two/tables/zh.json"
+run --report-only --out "$W/two" || fail "a broken record stopped the report: $(cat "$W/err.txt")"
+grep -q "record left out: .*zh.json" "$W/err.txt" || fail "a broken record was not reported"
+cmp -s "$W/one/summary.json" "$W/two/summary.json" || fail "a broken record changed the board"
+
+run --tables nosuch --out "$W/two" && fail "an unknown table was accepted"
+grep -q "'nosuch' is not a table of the spec" "$W/err.txt" || fail "unknown table: $(cat "$W/err.txt")"
+echo "scoreboard records: ok"
