@@ -26,6 +26,9 @@ sys.dont_write_bytecode = True  # no __pycache__ in the source tree
 spec = importlib.util.spec_from_file_location("peer_run", os.path.join(HERE, "run.py"))
 run = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(run)
+spec = importlib.util.spec_from_file_location("board_operon", os.path.join(HERE, "board_operon.py"))
+board_operon = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(board_operon)
 LGP = os.environ.get("LGP", os.path.join(run.REPO, "build", "release", "frontends", "lgp"))
 
 # Operon-style models and the same functions written by hand (double precision).
@@ -257,6 +260,23 @@ class Tables(unittest.TestCase):
         self.assertEqual(cfg["search"]["seed"], 2)  # the protocol wins
         self.assertEqual(cfg["search"]["population"], 50)
         self.assertTrue(cfg["search"]["linear_scaling"])
+
+
+class BoardOperon(unittest.TestCase):
+    """The scoreboard's Operon column: best RMS and best max at ISA <= k, over seeds."""
+
+    def test_cumulative_best_over_seeds_without_failed_translations(self):
+        def member(isa, rms, mx, check=True):
+            return {"isa": isa, "heldout_rms": rms, "heldout_max": mx, "check": check}
+        res = {"runs": [
+            {"table": "dfg_f0_1", "operon": {"members": [member(3, 0.1, 0.5), member(9, 0.02, 0.3),
+                                                          member(5, 0.001, 0.01, check=False)]}},
+            {"table": "dfg_f0_1", "operon": {"members": [member(5, 0.05, 0.6)]}},
+            {"table": "sheen", "operon": {"members": [member(4, 0.2, float("nan"))]}}]}
+        got = board_operon.entries([res])["tables"]
+        self.assertEqual(list(got), ["dfg"])  # the NaN member is left out, and its table
+        self.assertEqual([(e["channel"], e["isa_max"], e["rmse"], e["max_abs"]) for e in got["dfg"]],
+                         [("F0=1", 3, 0.1, 0.5), ("F0=1", 5, 0.05, 0.5), ("F0=1", 9, 0.02, 0.3)])
 
 
 if __name__ == "__main__":
