@@ -53,6 +53,24 @@ std::string minutesTag(double m) {
   return s.str();
 }
 
+// The front as committed: no path of this machine. The config's folder (where `lgp front` and
+// `lgp emit` find its scene) relative to the working directory, as lgp_quality writes it; the
+// front file the config would have written is not this one.
+json portableFront(json f) {
+  if (f.contains("config_dir") && f["config_dir"].is_string()) {
+    std::error_code ec;
+    const std::filesystem::path d = f["config_dir"].get<std::string>();
+    if (d.is_absolute()) {
+      const auto rel = std::filesystem::proximate(d, ec);
+      if (!ec) f["config_dir"] = rel.generic_string();
+    }
+  }
+  if (f.contains("config") && f["config"].contains("output"))
+    for (const char* k : {"front_json", "front_csv", "checkpoint"})
+      if (f["config"]["output"].contains(k)) f["config"]["output"][k] = "";
+  return f;
+}
+
 Record recordFrom(const json& j) {
   if (j.value("format", std::string()) != kFormat)
     throw std::runtime_error(std::string("/format: not ") + kFormat);
@@ -126,7 +144,7 @@ void writeRecord(const TableRun& r, const RecordSettings& s, const RecordTiming&
                      {"wall_s", sn.wall_s},
                      {"members", members}});
     std::ofstream(tables / (r.spec.name + ".front." + minutesTag(sn.minutes) + "min.json"))
-        << sn.front.dump(1) << "\n";
+        << portableFront(sn.front).dump(1) << "\n";
   }
   json fits = json::array();
   for (const auto& f : r.fits) fits.push_back(scoredJson(f));

@@ -21,6 +21,10 @@ for t in sheen fresnel_avg; do
   test -s "$W/two/tables/$t.json" || fail "no record for $t"
   test -s "$W/two/tables/$t.front.0.005min.json" || fail "no front for $t at 0.005 min"
 done
+# Fronts are committed: no absolute path of the machine that ran them.
+if grep -l -E '"(config_dir|front_json|front_csv|checkpoint)": "/' "$W"/two/tables/*.front.*.json; then
+  fail "a front holds an absolute path"
+fi
 
 rm "$W/two/summary.json" "$W/two/report.md"
 run --report-only --out "$W/two" || fail "--report-only: $(cat "$W/err.txt")"
