@@ -78,6 +78,15 @@ struct TableRun {
   double table_wall_s = 0, search_wall_s = 0;
 };
 
+// What a board was run with: only the records of the same settings share a report.
+struct Settings {
+  bool quick = false;
+  int threads = 2;
+  uint64_t seed = 1;
+  std::vector<double> minutes;  // nominal minutes, ascending
+  bool operator==(const Settings&) const = default;
+};
+
 struct Options {
   bool quick = false;
   int threads = 2;

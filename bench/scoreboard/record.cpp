@@ -26,16 +26,6 @@ double number(const json& j) {
   return NAN;
 }
 
-json scoredJson(const Scored& s) {
-  json ch = json::array();
-  for (const auto& c : s.channels)
-    ch.push_back({{"rmse", number(c.rmse)}, {"max_abs", number(c.max_abs)}});
-  return {{"name", s.name},
-          {"isa_rdna2", number(s.isa)},
-          {"model_cost", number(s.model_cost)},
-          {"heldout", ch},
-          {"formula", s.formula}};
-}
 Scored scoredFrom(const json& j) {
   Scored s;
   s.name = j.at("name").get<std::string>();
@@ -131,7 +121,17 @@ Record recordFrom(const json& j) {
 }
 }  // namespace
 
-void writeRecord(const TableRun& r, const RecordSettings& s, const RecordTiming& t,
+nlohmann::json scoredJson(const Scored& s) {
+  json ch = json::array();
+  for (const auto& c : s.channels)
+    ch.push_back({{"rmse", number(c.rmse)}, {"max_abs", number(c.max_abs)}});
+  return {{"name", s.name},
+          {"isa_rdna2", number(s.isa)},
+          {"model_cost", number(s.model_cost)},
+          {"heldout", ch},
+          {"formula", s.formula}};
+}
+void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                  const std::filesystem::path& dir) {
   const auto tables = dir / "tables";
   std::filesystem::create_directories(tables);

@@ -11,30 +11,24 @@
 
 namespace lgp::board {
 
-// What a record was run with; only records run with the same settings share a report.
-struct RecordSettings {
-  bool quick = false;
-  int threads = 2;
-  uint64_t seed = 1;
-  std::vector<double> minutes;
-  bool operator==(const RecordSettings&) const = default;
-};
-
 // The resources one table took (its share of the report's wall and CPU time).
 struct RecordTiming {
   std::string cpu;  // the CPU model
   double wall_s = 0, cpu_s = 0;
 };
 
+// A formula's held-out figures as JSON (records and summary.json); NaN is null, infinity "inf".
+nlohmann::json scoredJson(const Scored& s);
+
 struct Record {
-  RecordSettings settings;
+  Settings settings;
   RecordTiming timing;
   TableRun run;  // without the tables, fronts and config: what the report reads
 };
 
 // Writes <dir>/tables/<name>.json and the front of every budget beside it
 // (<name>.front.<minutes>min.json, lgp-front/1 with measured costs: `lgp front` reads it).
-void writeRecord(const TableRun& r, const RecordSettings& s, const RecordTiming& t,
+void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                  const std::filesystem::path& dir);
 // Every record in <dir>/tables; a file that is not a record is reported (`skipped`) and left out.
 std::vector<Record> readRecords(const std::filesystem::path& dir,

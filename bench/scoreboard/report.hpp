@@ -10,10 +10,7 @@
 namespace lgp::board {
 
 struct RunInfo {
-  bool quick = false;
-  int threads = 2;
-  uint64_t seed = 1;
-  std::vector<double> minutes;
+  Settings settings;
   std::string cpu;                          // the CPU model(s) of the tables' runs
   double wall_s = 0, cpu_s = 0;             // summed over the tables' runs
   std::vector<std::string> missing;         // tables of the spec without a record yet

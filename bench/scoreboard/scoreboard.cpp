@@ -79,17 +79,13 @@ int check(const std::vector<TableRun>& runs) {
 }
 // report.md, summary.json and timing.json from every record in `out` run with `settings`, in the
 // spec's order (tables the spec no longer names last). False when there is none.
-bool report(const std::vector<TableSpec>& specs, const RecordSettings& settings,
-            const fs::path& out) {
+bool report(const std::vector<TableSpec>& specs, const Settings& settings, const fs::path& out) {
   std::vector<std::string> skipped;
   auto records = readRecords(out, skipped);
   for (const auto& s : skipped)
     std::fprintf(stderr, "lgp_scoreboard: record left out: %s\n", s.c_str());
   RunInfo info;
-  info.quick = settings.quick;
-  info.threads = settings.threads;
-  info.seed = settings.seed;
-  info.minutes = settings.minutes;
+  info.settings = settings;
   std::vector<TableRun> runs;
   std::set<std::string> cpus;
   std::vector<bool> taken(records.size(), false);
@@ -181,7 +177,7 @@ int main(int argc, char** argv) {
     const json operon = readJson(args["operon"].as<std::string>());
     std::ofstream(out / "operon.json") << operon.dump(1) << "\n";
   }
-  const RecordSettings settings{o.quick, o.threads, o.seed, o.minutes};
+  const Settings settings{o.quick, o.threads, o.seed, o.minutes};
   std::vector<TableRun> runs;
   for (const auto& name : only)
     if (std::none_of(specs.begin(), specs.end(),
