@@ -111,7 +111,6 @@ std::vector<FrontEntry> Search::front() const {
   // formula does not reproduce its float32 values leaves the front (restored checkpoints may
   // hold members the archive never checked).
   std::vector<uint8_t> faithful(n, 1);
-  const std::vector<double> tol = fidelityTolerances(table_);
 #pragma omp parallel for num_threads(threads_) schedule(dynamic, 1)
   for (int i = 0; i < n; ++i) {
     FrontEntry& e = out[i];
@@ -121,10 +120,7 @@ std::vector<FrontEntry> Search::front() const {
       FidelityCheck full(table_, err_cfg_, 0);
       BoundProgram bp;
       bp.bind(e.program, shape_.num_inputs);
-      const auto formula = toProgram(formulaDag(e.program, shape_.num_inputs, domain_));
-      faithful[i] =
-          full.passes(bp, {}) && formula &&
-          valueDeviation(e.program, formula->program, ds_, err_cfg_.transforms, tol) <= 1.0;
+      faithful[i] = full.passes(bp, {}) && formulaReproduces(e.program);
       if (!faithful[i]) continue;
     }
     e.obj = members[i].obj;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numeric>
 
+#include "lgp/core/formula.hpp"
 #include "lgp/core/variation.hpp"
 #include "lgp/io/checkpoint.hpp"
 #include "lgp/search/differential_evolution.hpp"
@@ -40,6 +41,7 @@ Search::Search(RunConfig cfg, Table table)
     lm_fits_the_error_ = lmPlan(cfg_.search.refine.lm_metric, err_cfg_, channels).fits_error;
   }
   domain_ = tableDomain(table_);
+  fidelity_tol_ = fidelityTolerances(table_);
   disc_.domain = domain_;  // piecewise ops that never switch on the table count nothing
   cost_.domain = domain_;  // and guards that interval analysis removes cost nothing
   // Never more threads than the cores this process may use: more only cost memory and
@@ -107,11 +109,21 @@ bool Search::fidelityOnEveryRow(const Program& p) {
   if (!full_check_) full_check_ = std::make_unique<FidelityCheck>(table_, err_cfg_, 0);
   Scorer& s = scorer(0);
   if (!std::isfinite(s.error(p))) return false;
+  // The formula too: where the simplifier's rewrites do not hold for the program's float32
+  // values, its cost (taken from the simplified formula) is not the cost of what was scored,
+  // and such a member would dominate genuine ones out of the archive, then leave the front.
   if (full_check_->passes(s.bound(),
-                          err_cfg_.linear_scaling ? s.scales() : std::vector<LinearScale>{}))
+                          err_cfg_.linear_scaling ? s.scales() : std::vector<LinearScale>{}) &&
+      formulaReproduces(finalProgram(s, p)))
     return true;
   ++fidelity_archive_rejects_;
   return false;
+}
+
+bool Search::formulaReproduces(const Program& final_program) const {
+  const auto f = toProgram(formulaDag(final_program, shape_.num_inputs, domain_));
+  return f &&
+         valueDeviation(final_program, f->program, ds_, err_cfg_.transforms, fidelity_tol_) <= 1.0;
 }
 
 double Search::elapsed() const {

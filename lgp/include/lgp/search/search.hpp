@@ -263,8 +263,12 @@ class Search {
     Scorer scorer;
     CheckedScorer(const Search& s);
   };
-  // Whether the archive candidate `p` passes the fidelity rule on every row.
+  // Whether the archive candidate `p` passes the fidelity rule on every row, and its emitted
+  // formula computes what it computes (formulaReproduces).
   bool fidelityOnEveryRow(const Program& p);
+  // Whether the formula of `final_program` (simplified on the table's domain, as emitted)
+  // reproduces its float32 values within the fidelity tolerances on every row.
+  bool formulaReproduces(const Program& final_program) const;
   // The program a member stands for: introns pruned, linear scaling materialised.
   Program finalProgram(Scorer& s, const Program& p) const;
 
@@ -281,6 +285,7 @@ class Search {
   std::vector<std::unique_ptr<Scorer>> scorers_;        // one per OpenMP thread
   std::vector<std::unique_ptr<FidelityCheck>> checks_;  // theirs, on the sampled rows
   std::unique_ptr<FidelityCheck> full_check_;           // every row (archive candidates)
+  std::vector<double> fidelity_tol_;                    // fidelityTolerances(table_)
   uint64_t fidelity_archive_rejects_ = 0;
   std::vector<std::unique_ptr<ConstantFitter>> fitters_;
   std::vector<Island> islands_;
