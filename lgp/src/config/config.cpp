@@ -390,6 +390,7 @@ void parseVariation(const nlohmann::json& j, VariationConfig& v) {
   o.number("constant_sigma", v.constant_sigma, 0, 1e6);
   o.number("effective_bias", v.effective_bias, 0, 1);
   o.number("wrap_share", v.wrap_share, 0, 1);
+  o.number("weight_rate", v.weight_rate, 0, 1);
   o.finish();
 }
 
@@ -814,6 +815,8 @@ nlohmann::json toJson(const RunConfig& c) {
           {"references", c.references}};
   // Written only where set, so that the digests of configs without it stay as they were.
   if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
+  if (c.search.variation.weight_rate != 0)
+    out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
   return out;
 }
 

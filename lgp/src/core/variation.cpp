@@ -327,4 +327,64 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_sh
   repairAll(p, shape, rng);
 }
 
+bool weightMutate(Program& p, const ProgramShape& shape, Rng& rng) {
+  const int n = static_cast<int>(p.code.size());
+  const int nc = static_cast<int>(p.constants.size());
+  if (n >= shape.max_length || n >= 255 || nc == 0) return false;
+  // A slot no opcode reads, introns included: an intron that became effective later would
+  // otherwise read the new coefficient instead of its own value.
+  std::vector<uint8_t> read(nc, 0);
+  for (const Instr& ins : p.code)
+    for (int a = 0; a < arity(ins.op); ++a)
+      if (ins.args[a].kind == OperandKind::Const && ins.args[a].index < nc)
+        read[ins.args[a].index] = 1;
+  std::vector<int> free;
+  for (int c = 0; c < nc; ++c)
+    if (!read[c]) free.push_back(c);
+  if (free.empty()) return false;
+  const auto scaled = [&](const Instr& ins) {  // a mul by a constant: a weight already
+    return ins.op == Op::Mul &&
+           (ins.args[0].kind == OperandKind::Const || ins.args[1].kind == OperandKind::Const);
+  };
+  // The new opcode lands right before its reader; in "last" mode not inside the block of the
+  // last k opcodes (that would make it an output), so there it lands before the block.
+  const int k = static_cast<int>(p.outputs.size());
+  const int limit = shape.output_mode == OutputMode::Last ? n - k : n;
+  struct Site {
+    int reader, arg, pos;
+  };
+  std::vector<Site> sites;
+  for (int e : effectiveIndices(p)) {
+    const Instr& ins = p.code[e];
+    if (scaled(ins)) continue;
+    const int pos = std::min(e, limit);
+    for (int a = 0; a < arity(ins.op); ++a) {
+      const Operand& o = ins.args[a];
+      if (o.kind == OperandKind::Const) continue;
+      if (o.kind == OperandKind::Reg && (o.index >= pos || scaled(p.code[o.index]))) continue;
+      sites.push_back({e, a, pos});
+    }
+  }
+  if (sites.empty()) return false;
+  const Site s = sites[rng.below(static_cast<uint32_t>(sites.size()))];
+  const int slot = free[rng.below(static_cast<uint32_t>(free.size()))];
+  const Operand x = p.code[s.reader].args[s.arg];
+  for (int i = s.pos; i < n; ++i)
+    for (int a = 0; a < arity(p.code[i].op); ++a) {
+      Operand& o = p.code[i].args[a];
+      if (o.kind == OperandKind::Reg && o.index >= s.pos) ++o.index;
+    }
+  for (auto& o : p.outputs)
+    if (o >= s.pos) ++o;
+  Instr w;
+  w.op = Op::Mul;
+  w.args[0] = constOperand(slot);
+  w.args[1] = x;
+  p.code.insert(p.code.begin() + s.pos, w);
+  p.code[s.reader + 1].args[s.arg] = regOperand(s.pos);
+  p.constants[slot] = 1.0f;
+  syncOutputs(p, shape);
+  return true;
+}
+
 }  // namespace lgp

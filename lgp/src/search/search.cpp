@@ -555,6 +555,7 @@ void Search::step(bool check_budget) {
                   cfg_.program.const_min, cfg_.program.const_max};
   const auto& archived = archive_.members();
   std::vector<Individual> off(n);
+  std::vector<uint8_t> weighted(n, 0);  // offspring given a weight: refined whatever the share
 #pragma omp parallel for num_threads(threads_) schedule(static)
   for (int i = 0; i < n; ++i) {
     Rng rng(
@@ -582,13 +583,16 @@ void Search::step(bool check_budget) {
         microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias,
                     cfg_.program.const_min, cfg_.program.const_max);
     }
+    // Last, so the new coefficient starts at 1 (no draw at all at rate 0: same runs as before).
+    if (var.weight_rate > 0 && rng.chance(var.weight_rate))
+      weighted[i] = weightMutate(child, shape_, rng);
     off[i].program = std::move(child);
   }
   std::vector<uint8_t> refine(n, 0);
   Rng pick(hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), 0, 2));
   for (int i = 0; i < base + n; ++i) {
     const bool chosen = pick.chance(cfg_.search.refine.offspring_share);
-    if (i >= base) refine[i - base] = chosen;
+    if (i >= base) refine[i - base] = chosen || weighted[i - base];
   }
   evaluateAll(off, refine, static_cast<uint64_t>(g), static_cast<uint64_t>(base));
   for (const auto& ind : off) archiveInsert(ind.program, ind.obj, ind.refined);

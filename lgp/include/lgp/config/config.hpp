@@ -99,6 +99,9 @@ struct VariationConfig {
   double constant_sigma = 0.2;  // relative Gaussian step of a constant mutation
   double effective_bias = 0.9;  // chance a micro mutation targets an effective opcode
   double wrap_share = 0.5;      // chance an inserted opcode wraps the operand it replaces
+  // Chance an offspring gets a weight (weightMutate: x becomes mul(c, x) with c = 1, a
+  // coefficient of its own); such offspring are always refined, so constant fitting moves it.
+  double weight_rate = 0;
 };
 
 enum class RefineMethod : uint8_t {

@@ -49,4 +49,12 @@ void microMutate(Program& p, const ProgramShape& shape, Rng& rng, double constan
 // around what already works.
 void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_share = 0.5);
 
+// Weight mutation (Operon's weighted leaves, as opcodes): one operand x (an input or an earlier
+// result) of an effective opcode becomes mul(c, x), c a constant slot that no opcode reads, set
+// to 1 so the program's value is unchanged (1 * x == x in float32, NaN and -0 included);
+// constant fitting then moves the new coefficient. Operands already weighted (an operand of a
+// mul by a constant, or a mul by a constant itself) are left alone. False, and p unchanged,
+// where no operand qualifies, the program is at max_length or every constant slot is read.
+bool weightMutate(Program& p, const ProgramShape& shape, Rng& rng);
+
 }  // namespace lgp
