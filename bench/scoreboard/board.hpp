@@ -87,11 +87,8 @@ struct Settings {
   bool operator==(const Settings&) const = default;
 };
 
-struct Options {
-  bool quick = false;
-  int threads = 2;
-  uint64_t seed = 1;
-  std::vector<double> minutes = {5, 20};
+// The settings a record keeps, and how this invocation runs.
+struct Options : Settings {
   bool vulkan = true;
   std::filesystem::path cache_dir;
 };

@@ -177,7 +177,7 @@ int main(int argc, char** argv) {
     const json operon = readJson(args["operon"].as<std::string>());
     std::ofstream(out / "operon.json") << operon.dump(1) << "\n";
   }
-  const Settings settings{o.quick, o.threads, o.seed, o.minutes};
+  const Settings& settings = o;
   std::vector<TableRun> runs;
   for (const auto& name : only)
     if (std::none_of(specs.begin(), specs.end(),
