@@ -85,6 +85,19 @@ void shareSegmentConstants(Program& c, const Program& a, const Program& b, int s
     }
 }
 
+// Inserts `ins` at `pos`: register operands and outputs at or after pos shift by one, so
+// every opcode keeps reading (and every output keeps naming) the value it did.
+void insertAt(Program& p, int pos, const Instr& ins) {
+  for (size_t i = pos; i < p.code.size(); ++i)
+    for (int a = 0; a < arity(p.code[i].op); ++a) {
+      Operand& o = p.code[i].args[a];
+      if (o.kind == OperandKind::Reg && o.index >= pos) ++o.index;
+    }
+  for (auto& o : p.outputs)  // both output modes: the same opcodes, shifted
+    if (o >= pos) ++o;
+  p.code.insert(p.code.begin() + pos, ins);
+}
+
 }  // namespace
 
 Operand randomOperand(const ProgramShape& shape, int position, Rng& rng) {
@@ -271,14 +284,7 @@ void macroMutate(Program& p, const ProgramShape& shape, Rng& rng, double wrap_sh
     const int inner = shape.output_mode == OutputMode::Last ? n - k : last_eff;
     const int pos = static_cast<int>(rng.below(inner + (k == 1 ? 2 : 1)));
     const bool top = pos > inner;  // only with one output: pos == last_eff + 1
-    for (int i = pos; i < n; ++i)
-      for (int a = 0; a < arity(p.code[i].op); ++a) {
-        Operand& o = p.code[i].args[a];
-        if (o.kind == OperandKind::Reg && o.index >= pos) ++o.index;
-      }
-    for (auto& o : p.outputs)  // both modes: the outputs are the same opcodes, shifted
-      if (o >= pos) ++o;
-    p.code.insert(p.code.begin() + pos, randomInstr(shape, pos, rng));
+    insertAt(p, pos, randomInstr(shape, pos, rng));
     Instr& ins = p.code[pos];
     if (top) {
       ins.args[rng.below(arity(ins.op))] = Operand{OperandKind::Reg, static_cast<uint8_t>(pos - 1)};
@@ -369,18 +375,11 @@ bool weightMutate(Program& p, const ProgramShape& shape, Rng& rng) {
   const Site s = sites[rng.below(static_cast<uint32_t>(sites.size()))];
   const int slot = free[rng.below(static_cast<uint32_t>(free.size()))];
   const Operand x = p.code[s.reader].args[s.arg];
-  for (int i = s.pos; i < n; ++i)
-    for (int a = 0; a < arity(p.code[i].op); ++a) {
-      Operand& o = p.code[i].args[a];
-      if (o.kind == OperandKind::Reg && o.index >= s.pos) ++o.index;
-    }
-  for (auto& o : p.outputs)
-    if (o >= s.pos) ++o;
   Instr w;
   w.op = Op::Mul;
   w.args[0] = constOperand(slot);
   w.args[1] = x;
-  p.code.insert(p.code.begin() + s.pos, w);
+  insertAt(p, s.pos, w);
   p.code[s.reader + 1].args[s.arg] = regOperand(s.pos);
   p.constants[slot] = 1.0f;
   syncOutputs(p, shape);
