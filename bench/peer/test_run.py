@@ -29,6 +29,9 @@ spec.loader.exec_module(run)
 spec = importlib.util.spec_from_file_location("board_operon", os.path.join(HERE, "board_operon.py"))
 board_operon = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(board_operon)
+spec = importlib.util.spec_from_file_location("compare", os.path.join(HERE, "compare.py"))
+compare = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(compare)
 LGP = os.environ.get("LGP", os.path.join(run.REPO, "build", "release", "frontends", "lgp"))
 
 # Operon-style models and the same functions written by hand (double precision).
@@ -277,6 +280,39 @@ class BoardOperon(unittest.TestCase):
         self.assertEqual(list(got), ["dfg"])  # the NaN member is left out, and its table
         self.assertEqual([(e["channel"], e["isa_max"], e["rmse"], e["max_abs"]) for e in got["dfg"]],
                          [("F0=1", 3, 0.1, 0.5), ("F0=1", 5, 0.05, 0.5), ("F0=1", 9, 0.02, 0.3)])
+
+    def test_quality_outputs_map_to_channels_of_their_table(self):
+        def member(isa, rms):
+            return {"isa": isa, "heldout_rms": rms, "heldout_max": 2 * rms, "check": True}
+        res = {"runs": [{"table": "zh_ZH1_over_ZH0", "operon": {"members": [member(7, 0.01)]}},
+                        {"table": "zh_ZH0", "operon": {"members": [member(4, 0.02)]}},
+                        {"table": "normalization", "operon": {"members": [member(6, 0.03)]}}]}
+        got = board_operon.entries([res])["tables"]
+        self.assertEqual(sorted(got), ["normalization", "zh"])
+        self.assertEqual([(e.get("channel"), e["isa_max"]) for e in got["zh"]],
+                         [("ZH0", 4), ("ZH1_over_ZH0", 7)])
+        self.assertEqual([(e.get("channel"), e["isa_max"]) for e in got["normalization"]],
+                         [(None, 6)])
+
+
+class CompareArms(unittest.TestCase):
+    """The ablation table: per-k geometric mean of arm / base over the runs both have."""
+
+    def test_geometric_mean_and_operon_count(self):
+        def run(table, seed, lgp, operon):
+            return {"table": table, "seed": seed,
+                    "per_k": {"8": {"lgp_rms": lgp, "operon_rms": operon},
+                              "10": {"lgp_rms": None, "operon_rms": operon}}}
+        base = {("a", 1): run("a", 1, 0.4, 0.2), ("b", 1): run("b", 1, 0.1, 0.3)}
+        arm = {("a", 1): run("a", 1, 0.1, 0.2), ("b", 1): run("b", 1, 0.4, 0.3),
+               ("c", 1): run("c", 1, 0.5, 0.1)}  # no base run: left out of the mean
+        g, n = compare.geomean_ratio(arm, base, 8, "lgp_rms")
+        self.assertEqual(n, 2)
+        self.assertAlmostEqual(g, 1.0)  # sqrt(0.25 * 4)
+        self.assertEqual(compare.geomean_ratio(arm, base, 10, "lgp_rms"), (None, 0))
+        text = compare.report([("base", base), ("arm", arm)])
+        self.assertIn("| arm | 2 | 1.00 | - |", text)
+        self.assertIn("| 1 of 3 |", text)  # a at 8 is below Operon; b and c are not
 
 
 if __name__ == "__main__":
