@@ -139,5 +139,42 @@ TEST(Objectives, CostAndDiscontinuityCountEffectiveOpcodesOnly) {
             price(generic, Op::Exp));
 }
 
+// A product read only by adds and subtractions compiles into each of them (fused multiply-adds),
+// so it goes and they are priced as mads; a product read by anything else, stored as an output,
+// or the second product of the same sum stays.
+TEST(Objectives, ProductInsideASumIsPricedAsTheMadItCompilesTo) {
+  const auto m = CostModel::preset(CostTarget::GpuGeneric, {Interval{0.0, 1.0, false}});
+  auto price = [&](Op op) { return m.cost[static_cast<int>(op)]; };
+  Program p;  // x0*x1 + x0 and x1 - x0*x2: two fused pairs
+  p.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Add, {R(0), X(0)}},
+            Instr{Op::Mul, {X(0), X(2)}}, Instr{Op::Sub, {X(1), R(2)}},
+            Instr{Op::Add, {R(1), R(3)}}};
+  p.outputs = {4};
+  EXPECT_DOUBLE_EQ(m.programCost(p), 2 * price(Op::Mad) + price(Op::Add));
+  Program q;  // t + t*x0 with t = x0*x1: t is read by a product too and stays; t*x0 fuses
+  q.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Mul, {R(0), X(0)}},
+            Instr{Op::Add, {R(0), R(1)}}};
+  q.outputs = {2};
+  EXPECT_DOUBLE_EQ(m.programCost(q), price(Op::Mul) + price(Op::Mad));
+  Program u;  // (x0*x1)^2: a product read by a square stays
+  u.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Mul, {R(0), R(0)}}};
+  u.outputs = {1};
+  EXPECT_DOUBLE_EQ(m.programCost(u), 2 * price(Op::Mul));
+  Program r;  // x0*x1 + x1*x2: one product fuses, the other stays a mul
+  r.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Mul, {X(1), X(2)}},
+            Instr{Op::Add, {R(0), R(1)}}};
+  r.outputs = {2};
+  EXPECT_DOUBLE_EQ(m.programCost(r), price(Op::Mad) + price(Op::Mul));
+  Program b;  // (x0*x1 + x0)*(x0*x1 - x2): the product fuses into both sums
+  b.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Add, {R(0), X(0)}},
+            Instr{Op::Sub, {R(0), X(2)}}, Instr{Op::Mul, {R(1), R(2)}}};
+  b.outputs = {3};
+  EXPECT_DOUBLE_EQ(m.programCost(b), 2 * price(Op::Mad) + price(Op::Mul));
+  Program o;  // the product is also an output: it must be stored, nothing fuses
+  o.code = {Instr{Op::Mul, {X(0), X(1)}}, Instr{Op::Add, {R(0), X(0)}}};
+  o.outputs = {0, 1};
+  EXPECT_DOUBLE_EQ(m.programCost(o), price(Op::Mul) + price(Op::Add));
+}
+
 }  // namespace
 }  // namespace lgp

@@ -80,6 +80,37 @@ CostFeatures costFeatures(const Dag& d, const std::vector<Interval>& domain) {
   }
   // A negated constant is the same literal with a free source negation.
   f.literals = static_cast<int>(literals.size());
+  // A product read only by adds and subtractions compiles into each of them as a fused
+  // multiply-add (NIR's late ffma fusion asks exactly that of the fmul; measured: `x*y + z` is
+  // one RDNA2 instruction, (x*y + a)*(x*y + b) three), so the product goes and each sum is
+  // priced as the mad it becomes: a weighted operand c*x is nearly free inside a sum, and a
+  // program's mul-then-add costs what its printed `a*b + c` costs when parsed. A sum fuses one
+  // product; a product that is an output, or read by anything else, stays.
+  const std::vector<uint8_t> live = d.reachable();
+  std::vector<std::vector<int>> readers(d.nodes.size());
+  for (int id = 0; id < static_cast<int>(d.nodes.size()); ++id) {
+    const Node& n = d.nodes[id];
+    if (!n.isOp() || !live[id]) continue;
+    for (int k = 0; k < arity(n.op); ++k) readers[n.args[k]].push_back(id);
+  }
+  std::vector<uint8_t> sum_taken(d.nodes.size(), 0);
+  for (int id = 0; id < static_cast<int>(d.nodes.size()); ++id) {
+    const Node& m = d.nodes[id];
+    if (!m.isOp() || m.op != Op::Mul || is_output[id] || readers[id].empty()) continue;
+    bool fusable = true;
+    for (int r : readers[id]) {
+      const Node& n = d.nodes[r];
+      fusable = fusable && (n.op == Op::Add || n.op == Op::Sub) && n.args[0] != n.args[1] &&
+                !sum_taken[r];
+    }
+    if (!fusable) continue;
+    --f.ops[static_cast<int>(Op::Mul)];
+    for (int r : readers[id]) {
+      sum_taken[r] = 1;
+      --f.ops[static_cast<int>(d.nodes[r].op)];
+      ++f.ops[static_cast<int>(Op::Mad)];
+    }
+  }
   return f;
 }
 

@@ -53,9 +53,11 @@ std::vector<GpuFamily> allGpuFamilies();
 // (0, +-0.5, +-1, +-2, +-4; 1/(2 pi) is inline too, but no formula needs it).
 bool inlineConstant(double v);
 
-// The features the model prices, counted on a DAG: operator nodes per op, protected nodes per
-// op whose guard interval analysis cannot remove, distinct non-inline constants, and
-// modifiers that cannot fold. The calibration (emit/cost_calibration.hpp) fits the prices.
+// The features the model prices, counted on a DAG: operator nodes per op (a product read only
+// by one add or subtraction counted with it as one mad, the fused instruction it compiles to),
+// protected nodes per op whose guard interval analysis cannot remove, distinct non-inline
+// constants, and modifiers that cannot fold. The calibration (emit/cost_calibration.hpp) fits the
+// prices.
 struct CostFeatures {
   std::array<int, kNumOps> ops{};
   std::array<int, kNumOps> guards{};
