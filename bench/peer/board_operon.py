@@ -8,43 +8,26 @@ channel, Operon's best held-out RMS and best held-out max |error| at ISA <= k (m
 instructions) for every k where its front has a member, taking every seed of every file
 (the best over seeds: the figure most favourable to Operon). Members whose translation check
 failed are left out. The peer's DFG channels map to the board's `dfg` table (channels F0=1 and
-F0=0.04); the runs of a bench/quality table with several outputs (`zh_ZH0`: run.py names them
-`<table>_<output>`) map to that table, one channel per output; any other peer table keeps its
-name and has a single channel.
+F0=0.04: a renderer with a fixed F0 ships one such formula); any other peer table keeps its name
+and has a single channel. The per-output runs of a table with several outputs (`zh_ZH0`, ...)
+keep theirs too, so the board does not show them: it costs one program for all the outputs a
+shader needs, and one Operon model per output, each at ISA <= k, is not that.
 """
 import argparse
 import json
 import math
-import os
 import sys
-
-HERE = os.path.dirname(os.path.abspath(__file__))
-QUALITY_SPEC = os.path.join(HERE, "..", "quality", "quality.json")
 
 # peer table -> (board table, board channel or None for a single-channel table)
 BOARD = {"dfg_f0_1": ("dfg", "F0=1"), "dfg_f0_0p04": ("dfg", "F0=0.04")}
 
 
-def quality_channels(spec_path=QUALITY_SPEC):
-    """{"zh_ZH0": ("zh", "ZH0"), ...}: the per-output runs of the multi-output quality tables."""
-    out = {}
-    with open(spec_path) as f:
-        spec = json.load(f)
-    for t in spec["tables"]:
-        with open(os.path.join(os.path.dirname(spec_path), t["config"])) as f:
-            outs = json.load(f)["data"].get("outputs", [])
-        if len(outs) > 1:
-            out.update({"%s_%s" % (t["name"], o): (t["name"], o) for o in outs})
-    return out
-
-
 def entries(results_list):
     """{board table: [{"channel"?, "isa_max", "rmse", "max_abs"}]} from peer results."""
     members = {}  # (table, channel) -> [(isa, rms, max)]
-    board = dict(quality_channels(), **BOARD)
     for res in results_list:
         for run in res.get("runs", []):
-            key = board.get(run["table"], (run["table"], None))
+            key = BOARD.get(run["table"], (run["table"], None))
             for m in run.get("operon", {}).get("members", []):
                 if m.get("check") is False:
                     continue
