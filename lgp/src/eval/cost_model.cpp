@@ -86,28 +86,34 @@ CostFeatures costFeatures(const Dag& d, const std::vector<Interval>& domain) {
   // priced as the mad it becomes: a weighted operand c*x is nearly free inside a sum, and a
   // program's mul-then-add costs what its printed `a*b + c` costs when parsed. A sum fuses one
   // product; a product that is an output, or read by anything else, stays.
+  // Readers of each node, flat (this runs for every scored program).
+  const int nn = static_cast<int>(d.nodes.size());
   const std::vector<uint8_t> live = d.reachable();
-  std::vector<std::vector<int>> readers(d.nodes.size());
-  for (int id = 0; id < static_cast<int>(d.nodes.size()); ++id) {
-    const Node& n = d.nodes[id];
-    if (!n.isOp() || !live[id]) continue;
-    for (int k = 0; k < arity(n.op); ++k) readers[n.args[k]].push_back(id);
-  }
-  std::vector<uint8_t> sum_taken(d.nodes.size(), 0);
-  for (int id = 0; id < static_cast<int>(d.nodes.size()); ++id) {
+  std::vector<int> first(nn + 1, 0), readers;
+  for (int id = 0; id < nn; ++id)
+    if (d.nodes[id].isOp() && live[id])
+      for (int k = 0; k < arity(d.nodes[id].op); ++k) ++first[d.nodes[id].args[k] + 1];
+  for (int id = 0; id < nn; ++id) first[id + 1] += first[id];
+  readers.resize(first[nn]);
+  std::vector<int> fill(first.begin(), first.end() - 1);
+  for (int id = 0; id < nn; ++id)
+    if (d.nodes[id].isOp() && live[id])
+      for (int k = 0; k < arity(d.nodes[id].op); ++k) readers[fill[d.nodes[id].args[k]]++] = id;
+  std::vector<uint8_t> sum_taken(nn, 0);
+  for (int id = 0; id < nn; ++id) {
     const Node& m = d.nodes[id];
-    if (!m.isOp() || m.op != Op::Mul || is_output[id] || readers[id].empty()) continue;
+    if (!m.isOp() || m.op != Op::Mul || is_output[id] || first[id] == first[id + 1]) continue;
     bool fusable = true;
-    for (int r : readers[id]) {
-      const Node& n = d.nodes[r];
-      fusable = fusable && (n.op == Op::Add || n.op == Op::Sub) && n.args[0] != n.args[1] &&
-                !sum_taken[r];
+    for (int j = first[id]; j < first[id + 1] && fusable; ++j) {
+      const Node& n = d.nodes[readers[j]];
+      fusable =
+          (n.op == Op::Add || n.op == Op::Sub) && n.args[0] != n.args[1] && !sum_taken[readers[j]];
     }
     if (!fusable) continue;
     --f.ops[static_cast<int>(Op::Mul)];
-    for (int r : readers[id]) {
-      sum_taken[r] = 1;
-      --f.ops[static_cast<int>(d.nodes[r].op)];
+    for (int j = first[id]; j < first[id + 1]; ++j) {
+      sum_taken[readers[j]] = 1;
+      --f.ops[static_cast<int>(d.nodes[readers[j]].op)];
       ++f.ops[static_cast<int>(Op::Mad)];
     }
   }
