@@ -13,9 +13,11 @@ and how many of the arm's per-k figures are at or below Operon's of the same run
 import argparse
 import json
 import math
+import os
 import sys
 
-KS = [8, 10, 12, 15, 20, 25, 30, 40, 50, 64]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from run import KS, k_columns  # noqa: E402  (the peer protocol's ISA bounds, one list)
 
 
 def load(arms):
@@ -62,8 +64,7 @@ def report(arms):
               ""]
         for t, s in keys:
             L += ["%s, seed %d:" % (t, s), "",
-                  "| arm | " + " | ".join("k = %d" % k if i == 0 else str(k)
-                                          for i, k in enumerate(KS)) + " |",
+                  "| arm | " + k_columns() + " |",
                   "|---|" + "---|" * len(KS)]
             for name, runs in arms:
                 run = runs.get((t, s))
@@ -75,9 +76,8 @@ def report(arms):
         base_name, base = arms[0]
         L += ["### %s: arm / %s, geometric mean over runs (below 1: better than %s)" %
               (metric, base_name, base_name), "",
-              "| arm | runs | " + " | ".join("k = %d" % k if i == 0 else str(k)
-                                              for i, k in enumerate(KS)) +
-              " | at or below Operon |", "|---|---|" + "---|" * (len(KS) + 1)]
+              "| arm | runs | " + k_columns() + " | at or below Operon |",
+              "|---|---|" + "---|" * (len(KS) + 1)]
         for name, runs in arms:
             cells, n = [], 0
             for k in KS:

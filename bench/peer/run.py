@@ -781,9 +781,13 @@ def dagger(t, key):
     return " &dagger;" if t.get("operon_%s_unchecked" % key) else ""
 
 
+def k_columns():
+    """The per-k header cells of a markdown table: `k = 8 | 10 | ... | 64`."""
+    return " | ".join("k = %d" % k if i == 0 else str(k) for i, k in enumerate(KS))
+
+
 def ratio_table(results, key, L):
-    L.append("| table | seed | " + " | ".join("k = %d" % k if i == 0 else str(k)
-                                               for i, k in enumerate(KS)) + " |")
+    L.append("| table | seed | " + k_columns() + " |")
     L.append("|---|---|" + "---|" * len(KS))
     for x in results:
         L.append("| %s | %d | %s |" % (x["title"], x["seed"], " | ".join(
