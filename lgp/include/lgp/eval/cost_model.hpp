@@ -54,10 +54,10 @@ std::vector<GpuFamily> allGpuFamilies();
 bool inlineConstant(double v);
 
 // The features the model prices, counted on a DAG: operator nodes per op (a product read only
-// by one add or subtraction counted with it as one mad, the fused instruction it compiles to),
-// protected nodes per op whose guard interval analysis cannot remove, distinct non-inline
-// constants, and modifiers that cannot fold. The calibration (emit/cost_calibration.hpp) fits the
-// prices.
+// by adds and subtractions counted as fused into each, which then count as mads: the
+// instructions it compiles to), protected nodes per op whose guard interval analysis cannot
+// remove, distinct non-inline constants, and modifiers that cannot fold. The calibration
+// (emit/cost_calibration.hpp) fits the prices.
 struct CostFeatures {
   std::array<int, kNumOps> ops{};
   std::array<int, kNumOps> guards{};
