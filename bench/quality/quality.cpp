@@ -34,6 +34,7 @@
 #include "lgp/io/svg_plot.hpp"
 #include "lgp/search/search.hpp"
 #include "lgp/search/two_step.hpp"
+#include "run_state.hpp"
 #include "table_source.hpp"
 
 namespace fs = std::filesystem;
@@ -60,6 +61,7 @@ struct TableSpec {
   double evals_per_minute = 0;
   std::vector<double> minutes;  // empty = the command line's budgets
   std::vector<double> cost_levels;
+  std::vector<double> isa_levels;  // measured instructions (kCostFamily) for the budget table
   std::vector<TargetSpec> targets;
   std::vector<AblationSpec> ablation;
   double ablation_minutes = 2;
@@ -98,6 +100,10 @@ std::vector<TableSpec> parseSpec(const json& j, const std::string& file) {
       s.cost_levels.push_back(c);
     }
     if (s.cost_levels.empty()) die(at + "/cost_levels: give at least one cost level");
+    for (const auto& c : t.value("isa_levels", json::array())) {
+      if (!c.is_number() || !(c.get<double>() > 0)) die(at + "/isa_levels: numbers > 0");
+      s.isa_levels.push_back(c);
+    }
     for (size_t k = 0; k < t.value("targets", json::array()).size(); ++k) {
       const json& g = t["targets"][k];
       const std::string gat = at + "/targets/" + std::to_string(k);
@@ -193,18 +199,16 @@ double bestAtCost(const json& members, double c) {
   return best;
 }
 
-struct Snapshot {
-  double minutes = 0;
-  uint64_t evaluations = 0;
-  int generation = 0;
-  double wall_s = 0;
-  json front;  // lgp-front/1
-};
+using lgpq::CurvePoint;
+using lgpq::Snapshot;
 
-struct CurvePoint {
-  double minutes;
-  std::vector<double> best;  // per cost level
-};
+// Best objective error among members of measured instructions <= k.
+double bestAtIsa(const json& members, double k) {
+  double best = INFINITY;
+  for (const auto& m : members)
+    if (measuredInstructions(m) <= k) best = std::min(best, getNum(m, "error", INFINITY));
+  return best;
+}
 
 struct AblationResult {
   std::string name;
@@ -260,7 +264,23 @@ double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-void runTable(TableResult& r, const std::vector<double>& minutes, bool verbose) {
+// Where a run keeps its state (--state) and when it stops (--stop-after).
+struct StateOptions {
+  fs::path path;  // empty: no state
+  double save_every_s = 300;
+  double stop_after_s = 0;  // 0: run to the last budget
+  uint64_t seed = 0;
+  int threads = 0;
+};
+
+void saveState(const lgpq::RunState& st, const fs::path& path) {
+  if (auto s = lgpq::writeState(st, path); !s) die(s.message());
+}
+
+// Runs the table's search to the last budget, snapshotting the front at each. With a state
+// file it starts from the state (a finished one is not searched again) and saves it every
+// save_every_s, at each budget and when it stops. False when --stop-after stopped it first.
+bool runTable(TableResult& r, const std::vector<double>& minutes, const StateOptions& so) {
   const TableSpec& s = r.spec;
   std::vector<uint64_t> budgets;
   for (double m : minutes)
@@ -272,39 +292,95 @@ void runTable(TableResult& r, const std::vector<double>& minutes, bool verbose) 
     die(s.config +
         ": the main config of a quality table must use the joint mode (two_step "
         "belongs in the ablation)");
+  lgpq::RunState st;
+  st.table = s.name;
+  st.seed = so.seed;
+  st.threads = so.threads;
+  st.minutes = minutes;
+  const bool resume = !so.path.empty() && fs::exists(so.path);
+  if (resume) {
+    auto saved = lgpq::readState(so.path);
+    if (!saved) die(saved.error());
+    if (auto m = lgpq::checkStateMatches(*saved, st); !m)
+      die(so.path.string() + ": " + m.message());
+    st = std::move(*saved);
+    std::fprintf(stderr, "  [%s] resuming %s: %zu of %zu budgets reached, %.0f s so far%s\n",
+                 s.name.c_str(), so.path.string().c_str(), st.snaps.size(), minutes.size(),
+                 st.wall_s, st.finished ? " (finished: no search)" : "");
+  }
+  if (st.finished) {
+    r.snaps = st.snaps;
+    r.curve = st.curve;
+    return true;
+  }
   lgp::Search search(cfg, r.table);
-  for (const auto& why : search.addSeeds(seedsFor(cfg, r.table)))
-    std::fprintf(stderr, "  [%s] not seeded: %s\n", s.name.c_str(), why.c_str());
+  if (resume) {
+    if (auto rs = search.restore(st.search); !rs) die(so.path.string() + ": " + rs.message());
+  } else {
+    for (const auto& why : search.addSeeds(seedsFor(cfg, r.table)))
+      std::fprintf(stderr, "  [%s] not seeded: %s\n", s.name.c_str(), why.c_str());
+    search.initialize();
+  }
   const double t0 = now();
-  size_t next = 0;
-  double next_curve = 0;
-  search.initialize();
+  double last_save = t0;
+  auto save = [&](bool finished) {
+    if (so.path.empty()) return;
+    lgpq::RunState out = st;
+    out.wall_s = st.wall_s + (now() - t0);
+    out.sessions = st.sessions + 1;
+    out.finished = finished;
+    out.search = finished ? json() : search.checkpoint();
+    saveState(out, so.path);
+    last_save = now();
+  };
+  size_t next = st.snaps.size();
+  bool stopped = false;
   while (true) {
     const auto p = search.progress();
     const double mins = static_cast<double>(p.evaluations) / s.evals_per_minute;
-    if (mins >= next_curve || p.finished) {
+    if (mins >= st.next_curve || p.finished) {
       CurvePoint cp{mins, {}};
       for (const auto& [c, e] : p.best_at_cost) cp.best.push_back(e);
-      r.curve.push_back(cp);
-      next_curve = std::max(mins * 1.15, minutes.front() / 20);
+      st.curve.push_back(cp);
+      st.next_curve = std::max(mins * 1.15, minutes.front() / 20);
     }
+    bool snapped = false;
     while (next < budgets.size() && (p.evaluations >= budgets[next] || p.finished)) {
       Snapshot sn;
       sn.minutes = minutes[next];
       sn.evaluations = p.evaluations;
       sn.generation = p.generation;
-      sn.wall_s = now() - t0;
+      sn.wall_s = st.wall_s + (now() - t0);
       sn.front = lgp::frontToJson(search, search.front());
-      if (verbose)
-        std::fprintf(stderr, "  [%s] %g min budget: %llu evaluations, %d generations, %.1f s\n",
-                     s.name.c_str(), sn.minutes, static_cast<unsigned long long>(sn.evaluations),
-                     sn.generation, sn.wall_s);
-      r.snaps.push_back(std::move(sn));
+      std::fprintf(stderr, "  [%s] %g min budget: %llu evaluations, %d generations, %.1f s\n",
+                   s.name.c_str(), sn.minutes, static_cast<unsigned long long>(sn.evaluations),
+                   sn.generation, sn.wall_s);
+      st.snaps.push_back(std::move(sn));
       ++next;
+      snapped = true;
     }
     if (p.finished || next >= budgets.size()) break;
+    if (so.stop_after_s > 0 && now() - t0 >= so.stop_after_s) {
+      stopped = true;
+      break;
+    }
+    if (snapped || now() - last_save >= so.save_every_s) save(false);
     search.step();
   }
+  save(!stopped);
+  if (stopped) {
+    const auto p = search.progress();
+    std::fprintf(stderr,
+                 "  [%s] stopped after %.0f s at %.1f of %g nominal minutes; state in %s "
+                 "(run the same command again to go on)\n",
+                 s.name.c_str(), now() - t0,
+                 static_cast<double>(p.evaluations) / s.evals_per_minute, minutes.back(),
+                 so.path.string().c_str());
+    return false;
+  }
+  r.snaps = std::move(st.snaps);
+  r.curve = std::move(st.curve);
+  return true;
 }
 
 AblationResult runAblation(const TableResult& r, const AblationSpec& a, const fs::path& cfg_path,
@@ -512,13 +588,25 @@ void costLevelColumns(std::ostringstream& md, const TableSpec& s, int cols) {
 // "### Accuracy against search time": the best error at each cost level per budget.
 void writeBudgetTable(std::ostringstream& md, const TableResult& r) {
   const TableSpec& s = r.spec;
-  md << "### Accuracy against search time\n\nBest objective error at cost <= c.\n\n| budget "
-        "(nominal min) | evaluations | generations | front |";
-  costLevelColumns(md, s, 4);
+  const bool isa = r.measured && !s.isa_levels.empty();
+  md << "### Accuracy against search time\n\nBest objective error at cost <= c (model cost)"
+     << (isa ? std::string(" and at ") + kCostFamily +
+                   " <= k (measured instructions of every budget's front)"
+             : std::string())
+     << ".\n\n| budget (nominal min) | evaluations | generations | front |";
+  for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
+  const size_t isa_cols = isa ? s.isa_levels.size() : 0;
+  for (size_t k = 0; k < isa_cols; ++k)
+    md << " " << kCostFamily << " <= " << fmt(s.isa_levels[k]) << " |";
+  md << "\n|";
+  for (size_t k = 0; k < 4 + s.cost_levels.size() + isa_cols; ++k) md << "---|";
+  md << "\n";
   for (const auto& sn : r.snaps) {
     md << "| " << fmt(sn.minutes) << " | " << sn.evaluations << " | " << sn.generation << " | "
        << sn.front["members"].size() << " |";
     for (double c : s.cost_levels) md << " " << fmt(bestAtCost(sn.front["members"], c)) << " |";
+    if (isa)
+      for (double k : s.isa_levels) md << " " << fmt(bestAtIsa(sn.front["members"], k)) << " |";
     md << "\n";
   }
   md << "\n";
@@ -871,7 +959,16 @@ int qualityMain(int argc, char** argv) {
       "tables", "only these tables, comma-separated", cxxopts::value<std::string>())(
       "no-ablation", "skip the search-lever runs")("threads", "OpenMP threads",
                                                    cxxopts::value<int>()->default_value("2"))(
-      "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))("h,help", "help");
+      "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))(
+      "state",
+      "folder for each table's run state (<table>.state.json): saved as the run goes, a run "
+      "resumes from it (same seed, threads and budgets) and a finished one is not searched again",
+      cxxopts::value<std::string>())("save-every", "seconds between state saves",
+                                     cxxopts::value<double>()->default_value("300"))(
+      "stop-after",
+      "wall seconds after which the search saves its state and lgp_quality exits with 3 "
+      "(needs --state)",
+      cxxopts::value<double>()->default_value("0"))("h,help", "help");
   cxxopts::ParseResult args;
   try {
     args = opts.parse(argc, argv);
@@ -913,6 +1010,22 @@ int qualityMain(int argc, char** argv) {
     }
     std::sort(budgets.begin(), budgets.end());
   }
+  StateOptions so;
+  so.seed = seed;
+  so.threads = threads;
+  so.save_every_s = args["save-every"].as<double>();
+  so.stop_after_s = args["stop-after"].as<double>();
+  if (!(so.save_every_s > 0)) die("--save-every: must be > 0 seconds");
+  if (!(so.stop_after_s >= 0)) die("--stop-after: must be >= 0 seconds");
+  fs::path state_dir;
+  if (args.count("state")) {
+    state_dir = args["state"].as<std::string>();
+    std::error_code ec;
+    fs::create_directories(state_dir, ec);
+    if (ec) die("--state: cannot create " + state_dir.string() + ": " + ec.message());
+  } else if (so.stop_after_s > 0) {
+    die("--stop-after: needs --state (where the stopped run is saved)");
+  }
   const fs::path out = args["out"].as<std::string>();
   fs::create_directories(out);
   std::ostringstream md;
@@ -938,7 +1051,8 @@ int qualityMain(int argc, char** argv) {
         quick ? budgets : (spec_t.minutes.empty() ? budgets : spec_t.minutes);
     std::fprintf(stderr, "lgp_quality: %s: searching to %g nominal minutes\n", spec_t.name.c_str(),
                  mins.back());
-    runTable(r, mins, true);
+    so.path = state_dir.empty() ? fs::path() : state_dir / (spec_t.name + ".state.json");
+    if (!runTable(r, mins, so)) return 3;
     {
       // Measured cost of the final front and of the references (docs/cost-models.md).
       json f = r.snaps.back().front;
@@ -951,6 +1065,10 @@ int qualityMain(int argc, char** argv) {
       r.measured_note = r.measured ? info.value("compiler", std::string())
                                    : info["unavailable"].get<std::string>();
       r.snaps.back().front = std::move(f);
+      // The earlier budgets' fronts too, for the budget table's measured columns.
+      if (r.measured && !spec_t.isa_levels.empty())
+        for (size_t i = 0; i + 1 < r.snaps.size(); ++i)
+          lgp::emit::addMeasuredCost(r.snaps[i].front);
       std::fprintf(stderr, "lgp_quality: %s: running the final front on lavapipe\n",
                    spec_t.name.c_str());
       r.vulkan = verifyFront(r);
