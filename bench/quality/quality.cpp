@@ -573,6 +573,26 @@ json writeTargets(std::ostringstream& md, const TableResult& r) {
                     {"met", o.met}});
   }
   md << "\n";
+  // Every budget's front was measured (isa_levels): whether each target is met at each budget.
+  if (r.measured && !s.isa_levels.empty() && r.snaps.size() > 1) {
+    md << "Met at each budget (nominal minutes):\n\n| target |";
+    for (const auto& sn : r.snaps) md << " " << fmt(sn.minutes) << " |";
+    md << "\n|---|";
+    for (size_t i = 0; i < r.snaps.size(); ++i) md << "---|";
+    md << "\n";
+    for (size_t k = 0; k < s.targets.size(); ++k) {
+      md << "| " << mdEscape(s.targets[k].name) << " |";
+      json per = json::array();
+      for (const auto& sn : r.snaps) {
+        const bool met = evaluateTarget(s.targets[k], sn.front.at("members"), r.refs, true).met;
+        md << " " << (met ? "yes" : "no") << " |";
+        per.push_back(met);
+      }
+      tsum[k]["met_at_budgets"] = per;
+      md << "\n";
+    }
+    md << "\n";
+  }
   return tsum;
 }
 

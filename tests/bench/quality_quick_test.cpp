@@ -2,6 +2,7 @@
 // figure in it is finite, and it is deterministic. The targets themselves are not checked
 // here (a quick run is minutes of search); they belong to the committed full report.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -131,6 +132,45 @@ TEST_F(QualityQuick, ReportIsDeterministic) {
     fs::remove_all(d);
     fs::remove(d.string() + ".log");
   }
+}
+
+// A run stopped by --stop-after and resumed from its --state, as often as it takes, writes the
+// report of an uninterrupted run; the state refuses another seed and a file that is not one.
+TEST(QualityCli, StoppedAndResumedRunWritesTheUninterruptedReport) {
+  const fs::path whole = runQuick("whole", "--tables energy --no-ablation");
+  const fs::path dir =
+      fs::temp_directory_path() / ("lgp_quality_" + std::to_string(getpid()) + "_resumed");
+  const fs::path state = dir.string() + "_state";
+  fs::remove_all(dir);
+  fs::remove_all(state);
+  const std::string base = std::string(LGP_QUALITY_PATH) +
+                           " --quick --tables energy --no-ablation --out " + dir.string() +
+                           " --state " + state.string();
+  const std::string log = dir.string() + ".log";
+  int stops = 0, rc = 0;
+  for (int i = 0; i < 200; ++i) {
+    rc = std::system((base + " --stop-after 0.05 --save-every 0.01 > " + log + " 2>&1").c_str());
+    if (!WIFEXITED(rc) || WEXITSTATUS(rc) != 3) break;
+    ++stops;
+  }
+  ASSERT_TRUE(WIFEXITED(rc) && WEXITSTATUS(rc) == 0) << slurp(log);
+  EXPECT_GE(stops, 2) << "the run was never stopped: the test checks nothing";
+  EXPECT_EQ(slurp(whole / "report.md"), slurp(dir / "report.md"));
+  // Finished: running it again searches nothing and writes the same report.
+  ASSERT_EQ(std::system((base + " > " + log + " 2>&1").c_str()), 0) << slurp(log);
+  EXPECT_NE(slurp(log).find("finished: no search"), std::string::npos) << slurp(log);
+  EXPECT_EQ(slurp(whole / "report.md"), slurp(dir / "report.md"));
+  // Another seed is another run.
+  EXPECT_NE(std::system((base + " --seed 2 > " + log + " 2>&1").c_str()), 0);
+  EXPECT_NE(slurp(log).find("seed 1 there, 2 here"), std::string::npos) << slurp(log);
+  std::ofstream(state / "energy.state.json") << "{\"format\": \"something else\"}";
+  EXPECT_NE(std::system((base + " > " + log + " 2>&1").c_str()), 0);
+  EXPECT_NE(slurp(log).find("energy.state.json: /format"), std::string::npos) << slurp(log);
+  for (const auto& d : {whole, dir}) {
+    fs::remove_all(d);
+    fs::remove(d.string() + ".log");
+  }
+  fs::remove_all(state);
 }
 
 TEST(QualityCli, BadSpecIsAClearError) {
