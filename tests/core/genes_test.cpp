@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "lgp/config/config.hpp"
@@ -66,6 +67,18 @@ TEST(Genes, LayerFitsALinearCombinationExactly) {
   one.outputs = {1};
   Scorer s1(ds, layer(1), 64);
   EXPECT_GT(s1.error(one), 0.1);
+}
+
+// A program with fewer results than the layer has genes is not scored (its missing outputs
+// would read as 0 error).
+TEST(Genes, AProgramOfAnotherShapeScoresInfinity) {
+  const Table t = quadratic();
+  const Dataset ds(t, 64);
+  Scorer s(ds, layer(3), 64);
+  Program one = threeGenes();
+  one.outputs = {1};
+  EXPECT_EQ(s.error(one), std::numeric_limits<double>::infinity());
+  EXPECT_LT(s.error(threeGenes()), 1e-5);
 }
 
 TEST(Genes, MaterialisedLayerComputesWhatWasScored) {

@@ -737,6 +737,10 @@ double Scorer::error(const Program& p) {
 }
 
 double Scorer::error(const BoundProgram& bp) {
+  // A program of another shape (one gene where the layer wants several) would leave outputs
+  // unscored: its error would read as 0.
+  if (bp.output_slots.size() != static_cast<size_t>(ds_.numOutputs()) * genes_)
+    return std::numeric_limits<double>::infinity();
   bool ok = false;
   switch (cfg_.metric) {
     case ErrorMetric::Rmse:

@@ -642,6 +642,9 @@ Expected<ExhaustiveResult> exhaustiveSearch(const RunConfig& cfg, const Table& t
 
   ErrorConfig err = cfg.errorConfig(t.output_names);
   err.linear_scaling = cfg.search.linear_scaling;
+  // An enumerated expression is one gene: with an output layer it seeds the search as its
+  // lead gene (fitToShape), and is scored here as the plain a*f + b it then is.
+  err.genes = 1;
   const int block = cfg.eval.block_size;
   const Table screen_t = subsetRows(t, static_cast<size_t>(x.screen_rows));
   const Dataset screen_ds(screen_t, block), full_ds(t, block);
