@@ -343,3 +343,29 @@ def test_html_view_escapes_names():
     page = front._repr_html_()
     assert "<img" not in page and "&lt;img" in page
     assert page.count("<tr>") == len(front) + 1
+
+
+@pytest.mark.parametrize("program,variation", [
+    ({"genes": 3}, {}),
+    ({"constants": 12}, {"weight_rate": 0.3}),
+    ({"genes": 2, "constants": 12}, {"weight_rate": 0.3}),
+])
+def test_output_layer_and_weights_predict_what_was_scored(grid, program, variation):
+    # The search-4 representations through the module: the layer is materialised (one
+    # output), predict() reproduces the recorded float32 metrics, the double path agrees, and
+    # the exhaustive enumeration seeds the run under the layer too.
+    X, y = grid
+    front = lgp.fit(X, y, inputs=["x", "y"], ops=OPS, generations=25, threads=1, seed=4,
+                    program={"max_length": 16, **program},
+                    search={"population": 96, "linear_scaling": True, "variation": variation,
+                            "exhaustive": {"max_ops": 2, "seconds": 20}})
+    assert front.data["exhaustive"]["seeded"] >= 1
+    assert all(lvl["error"] > 0 for lvl in front.data["exhaustive"]["best"])
+    assert len(front) >= 3
+    for m in front:
+        p = m.predict(X)
+        rec = m.metrics[front.outputs[0]]
+        rmse = float(np.sqrt(np.mean((p - y) ** 2)))
+        assert rmse == pytest.approx(rec["rmse"], rel=1e-5, abs=1e-9), m.formula
+        d = m.predict(X, double_precision=True)
+        assert np.allclose(p, d, rtol=1e-4, atol=1e-5), m.formula
