@@ -133,6 +133,35 @@ TEST_F(Mpi, SyncMigrationIsReproducible) {
   EXPECT_EQ(fronts[0], fronts[1]);
 }
 
+// The search-4 representations over MPI: the output layer and weighted operands travel
+// between ranks (migrants are programs with their extra genes and coefficients), the sync mode
+// stays reproducible, and every member of the front is a one-output program that reproduces
+// its score in double precision.
+TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
+  json j = base(24, "sync");
+  j["program"] = {{"max_length", 16}, {"constants", 10}, {"genes", 2}};
+  j["search"]["linear_scaling"] = true;
+  j["search"]["variation"] = {{"weight_rate", 0.3}};
+  const std::string cfg = config(j);
+  std::string fronts[2];
+  for (int i = 0; i < 2; ++i) {
+    const auto r = sh(mpirun(2) + " run " + cfg + " -q");
+    ASSERT_EQ(r.code, 0) << r.out;
+    const auto f = readJson(dir / "front.json");
+    expectValidFront(f);
+    EXPECT_GT(f["progress"]["remote_migrants"].get<int>(), 0);
+    for (const auto& m : f["members"]) {
+      ASSERT_EQ(m["outputs"].size(), 1u) << m.dump();
+      const auto& o = m["outputs"][0];
+      EXPECT_NEAR(o["float32"]["rmse"].get<double>(), o["double"]["rmse"].get<double>(),
+                  1e-4 * (1 + o["double"]["rmse"].get<double>()))
+          << o.dump();
+    }
+    fronts[i] = membersOf(f) + f["progress"]["evaluations"].dump();
+  }
+  EXPECT_EQ(fronts[0], fronts[1]);
+}
+
 TEST_F(Mpi, EvaluationAndWallTimeBudgetsStopEveryRank) {
   for (const std::string mode : {"async", "sync"}) {
     auto j = base(0, mode);
