@@ -10,6 +10,7 @@
 #include "../shell.hpp"
 #include "../skip.hpp"
 
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -88,6 +89,24 @@ class Mpi : public ::testing::Test {
       EXPECT_TRUE(m.contains("program"));
     }
   }
+  // Two runs of `j` on 2 ranks (sync migration): each writes a valid front with migrants across
+  // ranks that passes `check`; their members and evaluation counts.
+  std::array<std::string, 2> twoSyncRuns(const json& j,
+                                         const std::function<void(const json&)>& check = {}) {
+    const std::string cfg = config(j);
+    std::array<std::string, 2> fronts;
+    for (auto& out : fronts) {
+      const auto r = sh(mpirun(2) + " run " + cfg + " -q");
+      EXPECT_EQ(r.code, 0) << r.out;
+      if (r.code != 0) break;
+      const auto f = readJson(dir / "front.json");
+      expectValidFront(f);
+      EXPECT_GT(f["progress"]["remote_migrants"].get<int>(), 0);
+      if (check) check(f);
+      out = membersOf(f) + f["progress"]["evaluations"].dump();
+    }
+    return fronts;
+  }
   static std::string membersOf(const json& f) {
     json out = json::array();
     for (const auto& m : f["members"]) out.push_back({m["program"], m["error"], m["cost"]});
@@ -120,16 +139,7 @@ TEST_F(Mpi, TwoRanksWriteOneValidFrontAndMigrateAcrossRanks) {
 }
 
 TEST_F(Mpi, SyncMigrationIsReproducible) {
-  const std::string cfg = config(base(24, "sync"));
-  std::string fronts[2];
-  for (int i = 0; i < 2; ++i) {
-    const auto r = sh(mpirun(2) + " run " + cfg + " -q");
-    ASSERT_EQ(r.code, 0) << r.out;
-    const auto f = readJson(dir / "front.json");
-    expectValidFront(f);
-    EXPECT_GT(f["progress"]["remote_migrants"].get<int>(), 0);
-    fronts[i] = membersOf(f) + f["progress"]["evaluations"].dump();
-  }
+  const auto fronts = twoSyncRuns(base(24, "sync"));
   EXPECT_EQ(fronts[0], fronts[1]);
 }
 
@@ -142,14 +152,7 @@ TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
   j["program"] = {{"max_length", 16}, {"constants", 10}, {"genes", 2}};
   j["search"]["linear_scaling"] = true;
   j["search"]["variation"] = {{"weight_rate", 0.3}};
-  const std::string cfg = config(j);
-  std::string fronts[2];
-  for (int i = 0; i < 2; ++i) {
-    const auto r = sh(mpirun(2) + " run " + cfg + " -q");
-    ASSERT_EQ(r.code, 0) << r.out;
-    const auto f = readJson(dir / "front.json");
-    expectValidFront(f);
-    EXPECT_GT(f["progress"]["remote_migrants"].get<int>(), 0);
+  const auto fronts = twoSyncRuns(j, [](const json& f) {
     for (const auto& m : f["members"]) {
       ASSERT_EQ(m["outputs"].size(), 1u) << m.dump();
       const auto& o = m["outputs"][0];
@@ -157,8 +160,7 @@ TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
                   1e-4 * (1 + o["double"]["rmse"].get<double>()))
           << o.dump();
     }
-    fronts[i] = membersOf(f) + f["progress"]["evaluations"].dump();
-  }
+  });
   EXPECT_EQ(fronts[0], fronts[1]);
 }
 
