@@ -179,3 +179,44 @@ TEST(WeightMutationSearch, SameSeedSameFrontAndMembersReproduceTheirScore) {
 
 }  // namespace
 }  // namespace lgp
+
+namespace lgp {
+namespace {
+
+std::vector<std::string> frontFormulas(const nlohmann::json& j) {
+  auto cfg = parseRunConfig(j, ".");
+  EXPECT_TRUE(cfg.hasValue()) << cfg.error();
+  Search s(*cfg, test::gridTable(16));
+  s.run();
+  std::vector<std::string> out;
+  for (const auto& e : s.front()) out.push_back(e.formula);
+  return out;
+}
+
+// weight_min_length: children with fewer effective opcodes get no weight (and draw nothing),
+// so a threshold no child reaches is the run without weights, and one in between is neither.
+TEST(WeightMutationSearch, MinLengthLeavesSmallChildrenUnweighted) {
+  auto with = [](double rate, int min_length) {
+    nlohmann::json j = weightConfig(rate);
+    if (min_length) j["search"]["variation"]["weight_min_length"] = min_length;
+    return j;
+  };
+  const auto none = frontFormulas(with(0, 0));
+  const auto all = frontFormulas(with(0.5, 0));
+  EXPECT_EQ(frontFormulas(with(0.5, 256)), none);
+  const auto large = frontFormulas(with(0.5, 3));
+  EXPECT_NE(large, none);
+  EXPECT_NE(large, all);
+  auto cfg = parseRunConfig(with(0.5, 6), ".");
+  ASSERT_TRUE(cfg.hasValue());
+  EXPECT_EQ(toJson(*cfg)["search"]["variation"]["weight_min_length"], 6);
+  EXPECT_FALSE(toJson(*parseRunConfig(with(0.5, 0), "."))["search"]["variation"].contains(
+      "weight_min_length"));
+  auto bad = parseRunConfig(with(0.5, 300), ".");
+  ASSERT_FALSE(bad.hasValue());
+  EXPECT_NE(bad.error().find("/search/variation/weight_min_length"), std::string::npos)
+      << bad.error();
+}
+
+}  // namespace
+}  // namespace lgp

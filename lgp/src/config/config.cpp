@@ -391,6 +391,7 @@ void parseVariation(const nlohmann::json& j, VariationConfig& v) {
   o.number("effective_bias", v.effective_bias, 0, 1);
   o.number("wrap_share", v.wrap_share, 0, 1);
   o.number("weight_rate", v.weight_rate, 0, 1);
+  o.integer("weight_min_length", v.weight_min_length, 0, 256);
   o.finish();
 }
 
@@ -817,6 +818,8 @@ nlohmann::json toJson(const RunConfig& c) {
   if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
   if (c.search.variation.weight_rate != 0)
     out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
+  if (c.search.variation.weight_min_length != 0)
+    out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
   return out;
 }
 

@@ -583,8 +583,13 @@ void Search::step(bool check_budget) {
         microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias,
                     cfg_.program.const_min, cfg_.program.const_max);
     }
-    // Last, so the new coefficient starts at 1 (no draw at all at rate 0: same runs as before).
-    if (var.weight_rate > 0 && rng.chance(var.weight_rate))
+    // Last, so the new coefficient starts at 1 (no draw at all at rate 0, nor for a child
+    // under weight_min_length: same runs as before, and as without weights where no child
+    // reaches it).
+    if (var.weight_rate > 0 &&
+        (var.weight_min_length == 0 ||
+         static_cast<int>(effectiveIndices(child).size()) >= var.weight_min_length) &&
+        rng.chance(var.weight_rate))
       weighted[i] = weightMutate(child, shape_, rng);
     off[i].program = std::move(child);
   }

@@ -102,6 +102,9 @@ struct VariationConfig {
   // Chance an offspring gets a weight (weightMutate: x becomes mul(c, x) with c = 1, a
   // coefficient of its own); such offspring are always refined, so constant fitting moves it.
   double weight_rate = 0;
+  // Offspring with fewer effective opcodes than this get no weight: the cheap end searches as
+  // without weights, and the coefficients go to the programs large enough to use them.
+  int weight_min_length = 0;
 };
 
 enum class RefineMethod : uint8_t {
