@@ -59,6 +59,15 @@ TEST(EmitDag, ExactRewrites) {
   EXPECT_EQ(simplified("exp2(3) * x"), "8*x");  // folded with the interpreter's exp2
   EXPECT_EQ(simplified("(-x) * 3"), "-3*x");
   EXPECT_EQ(simplified("min(x + y, x + y)"), "x + y");
+  // A zero coefficient folds where its operand is proven finite, keeping the zero's sign
+  // where a divisor sees it.
+  EXPECT_EQ(simplified("0 * x + y"), "0*x + y");  // x may be Inf: 0*Inf is NaN
+  EXPECT_EQ(simplified("0 * x + y", pos), "y");
+  EXPECT_EQ(simplified("y + x * 0 * y", pos), "y");
+  EXPECT_EQ(simplified("1 / (-0 * x)", pos), "-1e+20");  // -0, then the guarded 1/-0
+  const std::vector<Interval> signed_dom = {Interval{-1, 1, false}, Interval{0.5, 2, false}};
+  EXPECT_EQ(simplified("y + 0 * x", signed_dom), "y");   // no divisor sees the zero
+  EXPECT_EQ(simplified("1 / (0 * x)", signed_dom), "1/(0*x)");  // +-0 reaches rcp's guard
 }
 
 TEST(EmitDag, PowRewritesNeedAProvenNonNegativeBase) {

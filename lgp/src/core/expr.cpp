@@ -592,6 +592,13 @@ class Simplifier {
         if (isNeg(a[0]) && isNeg(a[1])) return make2(Op::Mul, arg0(a[0]), arg0(a[1]));
         if (isNeg(a[0]) && node(a[1]).isConst()) return make2(Op::Mul, arg0(a[0]), negConst(a[1]));
         if (isNeg(a[1]) && node(a[0]).isConst()) return make2(Op::Mul, negConst(a[0]), arg0(a[1]));
+        // 0*x is a zero for finite x (a weight fitted to 0); its sign is the constant's when x
+        // never has its sign bit set, and matters only where it reaches a divisor.
+        for (int k = 0; k < 2; ++k) {
+          const int z = a[k], x = a[1 - k];
+          if (isC(z, 0) && finite(x) && (sign_free_ || nonNegSigned(x)))
+            return constant(sign_free_ ? 0.0 : node(z).value);
+        }
         break;
       case Op::Div:
         if (isC(a[1], 1)) return a[0];
