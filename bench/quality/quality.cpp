@@ -596,12 +596,14 @@ json writeTargets(std::ostringstream& md, const TableResult& r) {
   return tsum;
 }
 
-// "| c <= 1 | c <= 4 |" and its rule, after the first `cols` columns of a table.
-void costLevelColumns(std::ostringstream& md, const TableSpec& s, int cols) {
+// "| c <= 1 | c <= 4 |", then the `extra` header cells, and the rule, after the first `cols`
+// columns of a table.
+void costLevelColumns(std::ostringstream& md, const TableSpec& s, int cols,
+                      const std::vector<std::string>& extra = {}) {
   for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
+  for (const auto& e : extra) md << " " << e << " |";
   md << "\n|";
-  for (int k = 0; k < cols; ++k) md << "---|";
-  for (size_t k = 0; k < s.cost_levels.size(); ++k) md << "---|";
+  for (size_t k = 0; k < cols + s.cost_levels.size() + extra.size(); ++k) md << "---|";
   md << "\n";
 }
 
@@ -614,13 +616,10 @@ void writeBudgetTable(std::ostringstream& md, const TableResult& r) {
                    " <= k (measured instructions of every budget's front)"
              : std::string())
      << ".\n\n| budget (nominal min) | evaluations | generations | front |";
-  for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
-  const size_t isa_cols = isa ? s.isa_levels.size() : 0;
-  for (size_t k = 0; k < isa_cols; ++k)
-    md << " " << kCostFamily << " <= " << fmt(s.isa_levels[k]) << " |";
-  md << "\n|";
-  for (size_t k = 0; k < 4 + s.cost_levels.size() + isa_cols; ++k) md << "---|";
-  md << "\n";
+  std::vector<std::string> isa_cols;
+  if (isa)
+    for (double k : s.isa_levels) isa_cols.push_back(std::string(kCostFamily) + " <= " + fmt(k));
+  costLevelColumns(md, s, 4, isa_cols);
   for (const auto& sn : r.snaps) {
     md << "| " << fmt(sn.minutes) << " | " << sn.evaluations << " | " << sn.generation << " | "
        << sn.front["members"].size() << " |";
