@@ -66,7 +66,7 @@ TEST(EmitDag, ExactRewrites) {
   EXPECT_EQ(simplified("y + x * 0 * y", pos), "y");
   EXPECT_EQ(simplified("1 / (-0 * x)", pos), "-1e+20");  // -0, then the guarded 1/-0
   const std::vector<Interval> signed_dom = {Interval{-1, 1, false}, Interval{0.5, 2, false}};
-  EXPECT_EQ(simplified("y + 0 * x", signed_dom), "y");   // no divisor sees the zero
+  EXPECT_EQ(simplified("y + 0 * x", signed_dom), "y");          // no divisor sees the zero
   EXPECT_EQ(simplified("1 / (0 * x)", signed_dom), "1/(0*x)");  // +-0 reaches rcp's guard
 }
 
