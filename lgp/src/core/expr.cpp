@@ -501,6 +501,13 @@ class Simplifier {
   int arg0(int id) const { return node(id).args[0]; }
   int negConst(int id) { return constant(-node(id).value); }
   bool finite(int id) const { return !iv_[id].nan && iv_[id].finite(); }
+  // Which factor of a*b is a constant 0 with the other proven finite (so the product is a
+  // zero; 0*Inf is NaN): 0 or 1, else -1.
+  int zeroTimesFinite(int a, int b) const {
+    if (isC(a, 0) && finite(b)) return 0;
+    if (isC(b, 0) && finite(a)) return 1;
+    return -1;
+  }
 
   // The value never has its sign bit set (it is >= +0 or NaN-free positive): products,
   // quotients, sums and the like of such values, and the operators that return >= +0.
@@ -592,13 +599,11 @@ class Simplifier {
         if (isNeg(a[0]) && isNeg(a[1])) return make2(Op::Mul, arg0(a[0]), arg0(a[1]));
         if (isNeg(a[0]) && node(a[1]).isConst()) return make2(Op::Mul, arg0(a[0]), negConst(a[1]));
         if (isNeg(a[1]) && node(a[0]).isConst()) return make2(Op::Mul, negConst(a[0]), arg0(a[1]));
-        // 0*x is a zero for finite x (a weight fitted to 0); its sign is the constant's when x
-        // never has its sign bit set, and matters only where it reaches a divisor.
-        for (int k = 0; k < 2; ++k) {
-          const int z = a[k], x = a[1 - k];
-          if (isC(z, 0) && finite(x) && (sign_free_ || nonNegSigned(x)))
-            return constant(sign_free_ ? 0.0 : node(z).value);
-        }
+        // A weight fitted to 0: the zero's sign is the constant's when the other factor never
+        // has its sign bit set, and matters only where it reaches a divisor.
+        if (const int k = zeroTimesFinite(a[0], a[1]);
+            k >= 0 && (sign_free_ || nonNegSigned(a[1 - k])))
+          return constant(sign_free_ ? 0.0 : node(a[k]).value);
         break;
       case Op::Div:
         if (isC(a[1], 1)) return a[0];
@@ -616,8 +621,7 @@ class Simplifier {
           if (sign_free_ || opInterval(Op::Mul, f).excludesZero())
             return make2(Op::Mul, a[0], a[1]);
         }
-        if ((sign_free_ || iv_[a[2]].excludesZero()) &&
-            ((isC(a[0], 0) && finite(a[1])) || (isC(a[1], 0) && finite(a[0]))))
+        if ((sign_free_ || iv_[a[2]].excludesZero()) && zeroTimesFinite(a[0], a[1]) >= 0)
           return a[2];
         if (node(a[0]).isConst() && node(a[1]).isConst())
           return make2(Op::Add, make2(Op::Mul, a[0], a[1]), a[2]);
