@@ -164,6 +164,57 @@ TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
   EXPECT_EQ(fronts[0], fronts[1]);
 }
 
+// Island profiles over MPI: an island's profile follows its global index, so islands 0 and 2
+// (one on each rank) hold only small programs, whatever arrives from the other rank; the sync
+// mode stays reproducible with either topology (by_profile: every batch crosses ranks).
+TEST_F(Mpi, IslandProfilesHoldOnEveryRank) {
+  for (const std::string topology : {"ring", "by_profile"}) {
+    SCOPED_TRACE(topology);
+    json j = base(24, "sync");
+    j["search"]["islands"]["topology"] = topology;
+    j["search"]["variation"] = {{"weight_rate", 0.3}};
+    j["search"]["islands"]["profiles"] = {{{"max_length", 5}, {"constants", 1}, {"weight_rate", 0}},
+                                          json::object()};
+    const fs::path ck = dir / "ck.json";
+    const std::string cfg = config(j);
+    std::array<std::string, 2> fronts;
+    for (auto& out : fronts) {
+      fs::remove(ck);
+      const auto r = sh(mpirun(2) + " run " + cfg + " -q --checkpoint " + ck.string());
+      ASSERT_EQ(r.code, 0) << r.out;
+      const auto f = readJson(dir / "front.json");
+      expectValidFront(f);
+      EXPECT_GT(f["progress"]["remote_migrants"].get<int>(), 0);
+      out = membersOf(f);
+      const auto state = readJson(ck);
+      ASSERT_EQ(state["parts"].size(), 2u);
+      int global = 0, small = 0, longer = 0;
+      for (const auto& part : state["parts"])
+        for (const auto& isl : part["islands"]) {
+          for (const auto& m : isl["population"]) {
+            const auto& code = m["program"]["code"];
+            if (global % 2 == 1) {
+              longer += code.size() > 5;
+              continue;
+            }
+            ++small;
+            EXPECT_LE(code.size(), 5u) << "island " << global << ": " << m.dump();
+            for (const auto& in : code)
+              for (size_t a = 1; a < in.size(); ++a) {
+                const std::string operand = in[a];
+                EXPECT_TRUE(operand[0] != 'c' || operand == "c0") << "island " << global;
+              }
+          }
+          ++global;
+        }
+      EXPECT_EQ(global, 4);
+      EXPECT_GT(small, 0);
+      EXPECT_GT(longer, 0);
+    }
+    EXPECT_EQ(fronts[0], fronts[1]);
+  }
+}
+
 TEST_F(Mpi, EvaluationAndWallTimeBudgetsStopEveryRank) {
   for (const std::string mode : {"async", "sync"}) {
     auto j = base(0, mode);

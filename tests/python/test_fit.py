@@ -346,19 +346,26 @@ def test_html_view_escapes_names():
     assert page.count("<tr>") == len(front) + 1
 
 
-@pytest.mark.parametrize("program,variation", [
-    ({"genes": 3}, {}),
-    ({"constants": 12}, {"weight_rate": 0.3}),
-    ({"genes": 2, "constants": 12}, {"weight_rate": 0.3}),
+SMALL_AND_LONG_ISLANDS = {"profiles": [{"max_length": 6, "constants": 2, "weight_rate": 0}, {}],
+                          "topology": "by_profile"}
+
+
+@pytest.mark.parametrize("program,variation,islands", [
+    ({"genes": 3}, {}, {}),
+    ({"constants": 12}, {"weight_rate": 0.3}, {}),
+    ({"genes": 2, "constants": 12}, {"weight_rate": 0.3}, {}),
+    ({"constants": 12}, {"weight_rate": 0.3}, SMALL_AND_LONG_ISLANDS),
 ])
-def test_output_layer_and_weights_predict_what_was_scored(grid, program, variation):
+def test_output_layer_and_weights_predict_what_was_scored(grid, program, variation, islands):
     # The search-4 representations through the module: the layer is materialised (one
     # output), predict() reproduces the recorded float32 metrics, the double path agrees, and
-    # the exhaustive enumeration seeds the run under the layer too.
+    # the exhaustive enumeration seeds the run under the layer too (and the small islands of
+    # a run with island profiles).
     X, y = grid
     front = lgp.fit(X, y, inputs=["x", "y"], ops=OPS, generations=25, threads=1, seed=4,
                     program={"max_length": 16, **program},
                     search={"population": 96, "linear_scaling": True, "variation": variation,
+                            "islands": islands,
                             "exhaustive": {"max_ops": 2, "seconds": 20}})
     assert front.data["exhaustive"]["seeded"] >= 1
     assert all(lvl["error"] > 0 for lvl in front.data["exhaustive"]["best"])

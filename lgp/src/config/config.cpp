@@ -34,6 +34,9 @@ std::string_view toString(ArchiveRefineOrder o) {
 std::string_view toString(IslandDeal d) {
   return d == IslandDeal::ByCost ? "by_cost" : "interleaved";
 }
+std::string_view toString(MigrationTopology t) {
+  return t == MigrationTopology::ByProfile ? "by_profile" : "ring";
+}
 std::string_view toString(MultiOutputMode m) {
   return m == MultiOutputMode::TwoStep ? "two_step" : "joint";
 }
@@ -410,6 +413,31 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
     else
       fail("/search/islands/deal", "must be \"interleaved\" or \"by_cost\" (got " + v.dump() + ")");
   }
+  if (o.has("topology")) {
+    const auto& v = o.at("topology");
+    if (v == "ring")
+      c.topology = MigrationTopology::Ring;
+    else if (v == "by_profile")
+      c.topology = MigrationTopology::ByProfile;
+    else
+      fail(o.path("topology"), "must be \"ring\" or \"by_profile\" (got " + v.dump() + ")");
+  }
+  if (o.has("profiles")) {
+    const auto& v = o.at("profiles");
+    if (!v.is_array() || v.empty())
+      fail(o.path("profiles"),
+           "must be a non-empty array of {\"max_length\", \"constants\", \"weight_rate\"} "
+           "objects (island k takes entry k mod its size)");
+    for (size_t i = 0; i < v.size(); ++i) {
+      Obj p(v[i], jsonPath(o.path("profiles"), i));
+      IslandProfile ip;
+      p.integer("max_length", ip.max_length, 0, 255);
+      p.integer("constants", ip.constants, 0, 255);
+      p.number("weight_rate", ip.weight_rate, 0, 1);
+      p.finish();
+      c.profiles.push_back(ip);
+    }
+  }
   o.finish();
 }
 
@@ -542,6 +570,18 @@ Status RunConfig::validate() const {
     return Status::error("/search/archive/" + s.message());
   if (auto s = search.islands.validate(); !s)
     return Status::error("/search/islands/" + s.message());
+  for (size_t i = 0; i < search.islands.profiles.size(); ++i) {
+    const auto& ip = search.islands.profiles[i];
+    const std::string p = jsonPath("/search/islands/profiles", i);
+    if (ip.max_length > program.max_length)
+      return Status::error(
+          jsonError(jsonPath(p, "max_length"),
+                    "must be <= program.max_length (" + std::to_string(program.max_length) + ")"));
+    if (ip.constants > program.num_constants)
+      return Status::error(jsonError(
+          jsonPath(p, "constants"),
+          "must be <= program.constants (" + std::to_string(program.num_constants) + ")"));
+  }
   if (auto s = search.refine.nm.validate(); !s)
     return Status::error("/search/refine/" + s.message());
   if (eval.block_size < 16 || eval.block_size % 16 != 0)
@@ -820,6 +860,18 @@ nlohmann::json toJson(const RunConfig& c) {
     out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
   if (c.search.variation.weight_min_length != 0)
     out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
+  if (c.search.islands.topology != MigrationTopology::Ring)
+    out["search"]["islands"]["topology"] = std::string(toString(c.search.islands.topology));
+  if (!c.search.islands.profiles.empty()) {
+    auto& a = out["search"]["islands"]["profiles"] = nlohmann::json::array();
+    for (const auto& ip : c.search.islands.profiles) {
+      nlohmann::json e = nlohmann::json::object();
+      if (ip.max_length != 0) e["max_length"] = ip.max_length;
+      if (ip.constants != 0) e["constants"] = ip.constants;
+      if (ip.weight_rate >= 0) e["weight_rate"] = ip.weight_rate;
+      a.push_back(std::move(e));
+    }
+  }
   return out;
 }
 

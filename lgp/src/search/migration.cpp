@@ -40,3 +40,77 @@ std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, I
 }
 
 }  // namespace lgp
+
+namespace lgp {
+
+ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile) {
+  ProgramShape s = run;
+  if (profile.max_length > 0)
+    s.max_length = std::max(run.num_outputs, std::min(run.max_length, profile.max_length));
+  if (profile.constants > 0) s.num_constants = std::min(run.num_constants, profile.constants);
+  return s;
+}
+
+namespace {
+
+bool fits(const Program& p, const ProgramShape& island) {
+  if (static_cast<int>(p.code.size()) > island.max_length) return false;
+  for (const Instr& in : p.code)
+    for (int a = 0; a < arity(in.op); ++a)
+      if (in.args[a].kind == OperandKind::Const && in.args[a].index >= island.num_constants)
+        return false;
+  return true;
+}
+
+}  // namespace
+
+std::optional<Program> fitToIsland(const Program& p, const ProgramShape& run,
+                                   const ProgramShape& island) {
+  if (fits(p, island)) return p;
+  Program q = pruneIntrons(p);
+  if (static_cast<int>(q.code.size()) > island.max_length) return std::nullopt;
+  // Slots read, in ascending order, become 0, 1, ...: the same values in the first slots.
+  std::vector<int> slot(q.constants.size(), -1);
+  for (const Instr& in : q.code)
+    for (int a = 0; a < arity(in.op); ++a)
+      if (in.args[a].kind == OperandKind::Const) slot[in.args[a].index] = 0;
+  int used = 0;
+  for (int& s : slot)
+    if (s == 0) s = used++;
+  if (used > island.num_constants) return std::nullopt;
+  std::vector<float> values(static_cast<size_t>(run.num_constants), 0.0f);
+  for (size_t i = 0; i < slot.size(); ++i)
+    if (slot[i] >= 0) values[slot[i]] = q.constants[i];
+  for (Instr& in : q.code)
+    for (int a = 0; a < arity(in.op); ++a)
+      if (in.args[a].kind == OperandKind::Const)
+        in.args[a].index = static_cast<uint8_t>(slot[in.args[a].index]);
+  q.constants = std::move(values);
+  return q;
+}
+
+std::vector<int> migrationTargets(int islands, const std::vector<IslandProfile>& profiles,
+                                  MigrationTopology topology) {
+  std::vector<int> to(std::max(islands, 0));
+  for (int k = 0; k < islands; ++k) {
+    to[k] = migrationTarget(k, islands);
+    if (topology != MigrationTopology::ByProfile || profiles.empty()) continue;
+    const auto& mine = profiles[static_cast<size_t>(k) % profiles.size()];
+    for (int step = 1; step <= islands; ++step) {
+      const int j = (k + step) % islands;
+      if (profiles[static_cast<size_t>(j) % profiles.size()] == mine) {
+        to[k] = j;  // step == islands: j == k, alone with its profile
+        break;
+      }
+    }
+  }
+  return to;
+}
+
+std::vector<int> migrationSources(const std::vector<int>& targets) {
+  std::vector<int> from(targets.size());
+  for (size_t k = 0; k < targets.size(); ++k) from[targets[k]] = static_cast<int>(k);
+  return from;
+}
+
+}  // namespace lgp

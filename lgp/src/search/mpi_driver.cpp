@@ -220,9 +220,11 @@ class Comm {
 // message each.
 class MpiTransport final : public MigrationTransport {
  public:
-  MpiTransport(Comm& comm, std::vector<int> owner, bool sync, ProgramShape shape)
+  MpiTransport(Comm& comm, std::vector<int> owner, std::vector<int> sources, bool sync,
+               ProgramShape shape)
       : comm_(comm),
         owner_(std::move(owner)),
+        sources_(std::move(sources)),
         sync_(sync),
         shape_(std::move(shape)),
         inbox_(owner_.size()),
@@ -244,8 +246,7 @@ class MpiTransport final : public MigrationTransport {
   }
 
   std::vector<Migrant> receive(int to) override {
-    const int total = static_cast<int>(owner_.size());
-    const int from = (to - 1 + total) % total;  // the ring: migrationTarget(from) == to
+    const int from = sources_[to];  // migrationTargets(...)[from] == to
     if (sync_ && owner_[from] != comm_.rank()) {
       // This round's batch from the neighbour; batches for this rank's other islands that
       // come first (same sender, same order of sending) are kept for their turn.
@@ -279,7 +280,8 @@ class MpiTransport final : public MigrationTransport {
 
  private:
   Comm& comm_;
-  std::vector<int> owner_;  // island -> rank
+  std::vector<int> owner_;    // island -> rank
+  std::vector<int> sources_;  // island -> the island it receives from
   bool sync_;
   ProgramShape shape_;
   std::vector<std::vector<Migrant>> inbox_;
@@ -457,7 +459,12 @@ class Driver {
     search_ = std::make_unique<Search>(cfg_, table_);
     search_->setIslandRange(first_, count_, total_);
     search_->setRanks(ranks_);
-    auto transport = std::make_unique<MpiTransport>(comm_, owner_, sync_, search_->shape());
+    const auto& ic = cfg_.search.islands;
+    auto transport = std::make_unique<MpiTransport>(
+        comm_, owner_,
+        migrationSources(
+            migrationTargets(static_cast<int>(owner_.size()), ic.profiles, ic.topology)),
+        sync_, search_->shape());
     mig_ = transport.get();
     search_->setTransport(std::move(transport));
     Status start = Status::ok();

@@ -32,6 +32,8 @@ Search::Search(RunConfig cfg, Table table)
       disc_(cfg_.discontinuityModel()),
       ds_(table_, cfg_.eval.block_size),
       archive_(cfg_.search.archive) {
+  for (const auto& ip : cfg_.search.islands.profiles)
+    profile_shapes_.push_back(lgp::islandShape(shape_, ip));
   transform_cost_ = cost_.transformCost(err_cfg_.transforms);
   err_cfg_.linear_scaling = cfg_.search.linear_scaling;
   err_cfg_.genes = cfg_.search.linear_scaling ? cfg_.program.genes : 1;
@@ -423,6 +425,18 @@ int Search::localPopulation() const {
   return n;
 }
 
+const ProgramShape& Search::islandShape(int k) const {
+  if (profile_shapes_.empty()) return shape_;
+  return profile_shapes_[static_cast<size_t>(k) % profile_shapes_.size()];
+}
+
+double Search::islandWeightRate(int k) const {
+  const auto& profiles = cfg_.search.islands.profiles;
+  if (profiles.empty()) return cfg_.search.variation.weight_rate;
+  const double r = profiles[static_cast<size_t>(k) % profiles.size()].weight_rate;
+  return r >= 0 ? r : cfg_.search.variation.weight_rate;
+}
+
 int Search::offspringBase() const {
   int n = 0;
   for (int k = 0; k < island_first_; ++k) n += islandSize(k);
@@ -437,9 +451,12 @@ void Search::migrate(int generation) {
   // Each island sends its lowest-error member and random others from its first front. An
   // island with nothing to send still sends (an empty batch), so that a synchronous transport
   // always gets one message per island and round.
+  if (static_cast<int>(targets_.size()) != total)
+    targets_ = migrationTargets(total, ic.profiles, ic.topology);
   for (int k = 0; k < count; ++k) {
     const Island& isl = islands_[k];
     const int global = island_first_ + k;
+    const int target = targets_[global];
     std::vector<int> first;
     int best = -1;
     for (int i = 0; i < static_cast<int>(isl.pop.size()); ++i) {
@@ -448,8 +465,8 @@ void Search::migrate(int generation) {
       if (best < 0 || isl.pop[i].obj.error < isl.pop[best].obj.error) best = i;
     }
     std::vector<Migrant> out;
-    if (first.empty()) {
-      transport_->send(global, migrationTarget(global, total), std::move(out));
+    if (first.empty() || target == global) {  // alone with its profile: an empty batch
+      transport_->send(global, target, std::move(out));
       continue;
     }
     Rng rng(hashSeed(cfg_.search.seed, static_cast<uint64_t>(generation),
@@ -461,7 +478,7 @@ void Search::migrate(int generation) {
       out.push_back({isl.pop[first[j]].program, isl.pop[first[j]].obj});
       first.erase(first.begin() + static_cast<std::ptrdiff_t>(j));
     }
-    transport_->send(global, migrationTarget(global, total), std::move(out));
+    transport_->send(global, target, std::move(out));
   }
   // Arrivals join the island's pool; the worst leave (elitist, like any survival).
   std::vector<std::vector<Migrant>> arrived(count);
@@ -470,8 +487,11 @@ void Search::migrate(int generation) {
   for (int k = 0; k < count; ++k) {
     if (arrived[k].empty()) continue;
     Island& isl = islands_[k];
+    const ProgramShape& view = islandShape(island_first_ + k);
     std::vector<Individual> pool = std::move(isl.pop);
-    for (auto& m : arrived[k]) pool.push_back({std::move(m.program), m.obj, false});
+    for (auto& m : arrived[k])
+      if (auto p = fitToIsland(m.program, shape_, view))  // what does not fit stays away
+        pool.push_back({std::move(*p), m.obj, false});
     survive(isl, pool, islandSize(island_first_ + k));
   }
 }
@@ -501,16 +521,22 @@ void Search::initialize() {
   InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
                   cfg_.program.const_min, cfg_.program.const_max};
   std::vector<Individual> inds(n);
-  for (int i = 0; i < n; ++i) {
-    Rng rng(hashSeed(cfg_.search.seed, 0, base + static_cast<uint64_t>(i), 1));
-    inds[i].program = randomProgram(shape_, init, rng);
-  }
-  // Seeds take the first slots of every island (at most half of each: the rest stays diverse).
   int first = 0;
   for (int k = 0; k < count; ++k) {
+    const ProgramShape& view = islandShape(island_first_ + k);
     const int size = islandSize(island_first_ + k);
-    for (int j = 0; j < static_cast<int>(seeds_.size()) && j < size / 2; ++j)
-      inds[first + j].program = seeds_[j];
+    for (int i = first; i < first + size; ++i) {
+      Rng rng(hashSeed(cfg_.search.seed, 0, base + static_cast<uint64_t>(i), 1));
+      inds[i].program = randomProgram(view, init, rng);
+      inds[i].program.constants.resize(shape_.num_constants, 0.0f);
+    }
+    // Seeds take the first slots of every island (at most half of each: the rest stays
+    // diverse), where they fit its profile.
+    int j = 0;
+    for (const Program& seed : seeds_) {
+      if (j >= size / 2) break;
+      if (auto p = fitToIsland(seed, shape_, view)) inds[first + j++].program = std::move(*p);
+    }
     first += size;
   }
   evaluateAll(inds, {}, 0, base);
@@ -561,36 +587,54 @@ void Search::step(bool check_budget) {
     Rng rng(
         hashSeed(cfg_.search.seed, static_cast<uint64_t>(g), static_cast<uint64_t>(base + i), 1));
     const Island& isl = islands_[owner[i]];
+    const ProgramShape& view = islandShape(island_first_ + owner[i]);
     if (restart[owner[i]]) {
       const int j = i - first[owner[i]];
-      off[i].program = j < ic.migrants && !archived.empty()
-                           ? archived[rng.below(static_cast<uint32_t>(archived.size()))].program
-                           : randomProgram(shape_, init, rng);
+      std::optional<Program> p;
+      if (j < ic.migrants && !archived.empty())
+        p = fitToIsland(archived[rng.below(static_cast<uint32_t>(archived.size()))].program, shape_,
+                        view);
+      if (!p) {
+        p = randomProgram(view, init, rng);
+        p->constants.resize(shape_.num_constants, 0.0f);
+      }
+      off[i].program = std::move(*p);
       continue;
     }
     const int a = tournament(isl, rng);
     Program child;
     if (rng.chance(var.crossover_rate)) {
       const int b = tournament(isl, rng);
-      child = crossover(isl.pop[a].program, isl.pop[b].program, shape_, rng);
+      child = crossover(isl.pop[a].program, isl.pop[b].program, view, rng);
     } else {
       child = isl.pop[a].program;
     }
-    if (rng.chance(var.macro_rate)) macroMutate(child, shape_, rng, var.wrap_share);
+    if (rng.chance(var.macro_rate)) macroMutate(child, view, rng, var.wrap_share);
     if (rng.chance(var.micro_rate)) {
       const int m = 1 + static_cast<int>(rng.below(var.micro_max));
       for (int k = 0; k < m; ++k)
-        microMutate(child, shape_, rng, var.constant_sigma, var.effective_bias,
+        microMutate(child, view, rng, var.constant_sigma, var.effective_bias,
                     cfg_.program.const_min, cfg_.program.const_max);
     }
     // Last, so the new coefficient starts at 1 (no draw at all at rate 0, nor for a child
     // under weight_min_length: same runs as before, and as without weights where no child
     // reaches it).
-    if (var.weight_rate > 0 &&
+    const double weight_rate = islandWeightRate(island_first_ + owner[i]);
+    if (weight_rate > 0 &&
         (var.weight_min_length == 0 ||
          static_cast<int>(effectiveIndices(child).size()) >= var.weight_min_length) &&
-        rng.chance(var.weight_rate))
-      weighted[i] = weightMutate(child, shape_, rng);
+        rng.chance(weight_rate))
+      weighted[i] = weightMutate(child, view, rng);
+    // Crossover and weights may place a constant in a slot past the island's (they look for a
+    // free one among all): renumbered where possible, else the child is its parent again.
+    if (&view != &shape_) {
+      if (auto p = fitToIsland(child, shape_, view)) {
+        child = std::move(*p);
+      } else {
+        child = isl.pop[a].program;
+        weighted[i] = 0;
+      }
+    }
     off[i].program = std::move(child);
   }
   std::vector<uint8_t> refine(n, 0);
@@ -660,7 +704,9 @@ void Search::refineArchive() {
   const std::vector<int> to = dealIslands(objs, count, cfg_.search.islands.deal);
   std::vector<std::vector<Individual>> pools(count);
   for (int k = 0; k < count; ++k) pools[k] = std::move(islands_[k].pop);
-  for (size_t j = 0; j < inds.size(); ++j) pools[to[j]].push_back(std::move(inds[j]));
+  for (size_t j = 0; j < inds.size(); ++j)  // a member that does not fit its island stays away
+    if (auto p = fitToIsland(inds[j].program, shape_, islandShape(island_first_ + to[j])))
+      pools[to[j]].push_back({std::move(*p), inds[j].obj, inds[j].refined});
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(island_first_ + k));
 }

@@ -164,6 +164,11 @@ struct IslandConfig {
   // How the members of each archive refinement rejoin the islands (one island each):
   // "interleaved" (in turn) or "by_cost" (consecutive cost slices, see IslandDeal).
   IslandDeal deal = IslandDeal::Interleaved;
+  // Island k has profiles[k % size]; empty = every island searches the run's program shape.
+  std::vector<IslandProfile> profiles;
+  // Who sends migrants to whom: "ring" (the next island) or "by_profile" (the next island of
+  // the same profile).
+  MigrationTopology topology = MigrationTopology::Ring;
   Status validate() const;
 };
 
@@ -264,6 +269,7 @@ std::string_view toString(RefineMethod m);
 std::string_view toString(LmObjective o);
 std::string_view toString(ArchiveRefineOrder o);
 std::string_view toString(IslandDeal d);
+std::string_view toString(MigrationTopology t);
 std::string_view toString(MultiOutputMode m);
 std::string_view toString(MigrationMode m);
 

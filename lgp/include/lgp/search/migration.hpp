@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "lgp/core/program.hpp"
@@ -66,9 +67,47 @@ enum class IslandDeal : uint8_t {
 // The island (0..islands-1) each of `objs` goes to; deterministic for the same input.
 std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, IslandDeal deal);
 
+// What an island's own variation may build, where it differs from the run's program shape
+// (search.islands.profiles). Islands with a small profile search the cheap end as a run of small
+// programs would, while the others grow long ones: an island only ever holds programs that fit
+// its profile.
+struct IslandProfile {
+  int max_length = 0;       // opcodes per program in this island; 0 = program.max_length
+  int constants = 0;        // constant slots its programs may read; 0 = program.constants
+  double weight_rate = -1;  // variation.weight_rate in this island; < 0 = the run's
+  friend bool operator==(const IslandProfile&, const IslandProfile&) = default;
+};
+
+// The shape an island's variation works with: the run's, with the profile's smaller length and
+// constant count.
+ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile);
+
+// `p` as a program of the run's shape that fits `island` (at most island.max_length opcodes,
+// reading only the first island.num_constants slots): p itself where it already does, else p
+// with its introns pruned and the constant slots it reads renumbered from 0 (same values, so
+// the same function and objectives). Nothing where even that does not fit.
+std::optional<Program> fitToIsland(const Program& p, const ProgramShape& run,
+                                   const ProgramShape& island);
+
 // The island that island `from` sends to: the next one on a ring.
 inline int migrationTarget(int from, int islands) {
   return (from + 1) % islands;
 }
+
+// Who sends to whom (search.islands.topology).
+enum class MigrationTopology : uint8_t {
+  Ring,      // every island to the next: with profiles, small and long islands feed each other
+  ByProfile  // every island to the next island of the same profile (a ring per profile; an
+             // island alone with its profile keeps its members): islands of long programs
+             // grow among themselves, fed the cheap end only through the shared archive
+};
+
+// The island each island sends to (index = sender). A permutation, so that every island
+// receives exactly one batch per round (the sync MPI mode relies on it); an island that is its
+// own target sends nothing.
+std::vector<int> migrationTargets(int islands, const std::vector<IslandProfile>& profiles,
+                                  MigrationTopology topology);
+// The inverse: the island each island receives from.
+std::vector<int> migrationSources(const std::vector<int>& targets);
 
 }  // namespace lgp

@@ -242,6 +242,9 @@ class Search {
   static void rankIsland(Island& isl);
   int tournament(const Island& isl, Rng& rng) const;
   int islandSize(int k) const;  // population share of global island k
+  // What global island k's variation may build (search.islands.profiles), and its weight rate.
+  const ProgramShape& islandShape(int k) const;
+  double islandWeightRate(int k) const;
   int localPopulation() const;  // offspring per generation of this search's islands
   int offspringBase() const;    // global index of this search's first offspring
   void migrate(int generation);
@@ -289,6 +292,8 @@ class Search {
   uint64_t fidelity_archive_rejects_ = 0;
   std::vector<std::unique_ptr<ConstantFitter>> fitters_;
   std::vector<Island> islands_;
+  std::vector<ProgramShape> profile_shapes_;  // per entry of search.islands.profiles
+  std::vector<int> targets_;  // migrationTargets of the whole search (set with island_total_)
   std::unique_ptr<MigrationTransport> transport_;
   int island_first_ = 0;  // global index of islands_[0]
   int island_total_ = 0;  // islands of the whole search; 0 = not yet known (all are local)
