@@ -598,7 +598,7 @@ json writeTargets(std::ostringstream& md, const TableResult& r) {
 
 // "| c <= 1 | c <= 4 |", then the `extra` header cells, and the rule, after the first `cols`
 // columns of a table.
-void costLevelColumns(std::ostringstream& md, const TableSpec& s, int cols,
+void costLevelColumns(std::ostringstream& md, const TableSpec& s, size_t cols,
                       const std::vector<std::string>& extra = {}) {
   for (double c : s.cost_levels) md << " c <= " << fmt(c) << " |";
   for (const auto& e : extra) md << " " << e << " |";

@@ -66,11 +66,14 @@ TEST(FitToIsland, FitsTheIslandAndComputesTheSameBits) {
   int moved = 0, refused = 0, unchanged = 0;
   for (int trial = 0; trial < 3000; ++trial) {
     const Program p = randomProgram(run, {1, 30, -2, 2}, rng);
-    const auto q = fitToIsland(p, run, island);
+    Program fitted = p;
+    const bool ok = fitToIsland(fitted, run, island);
+    const Program* q = &fitted;
     const Program pruned = pruneIntrons(p);
     const auto used = effectiveConstants(p);
-    if (!q) {
+    if (!ok) {
       ++refused;
+      EXPECT_EQ(fitted, p);  // left as it was
       EXPECT_TRUE(static_cast<int>(pruned.code.size()) > island.max_length ||
                   static_cast<int>(used.size()) > island.num_constants);
       continue;

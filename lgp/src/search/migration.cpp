@@ -39,10 +39,6 @@ std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, I
   return to;
 }
 
-}  // namespace lgp
-
-namespace lgp {
-
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile) {
   ProgramShape s = run;
   if (profile.max_length > 0)
@@ -64,29 +60,27 @@ bool fits(const Program& p, const ProgramShape& island) {
 
 }  // namespace
 
-std::optional<Program> fitToIsland(const Program& p, const ProgramShape& run,
-                                   const ProgramShape& island) {
-  if (fits(p, island)) return p;
+bool fitToIsland(Program& p, const ProgramShape& run, const ProgramShape& island) {
+  if (fits(p, island)) return true;
   Program q = pruneIntrons(p);
-  if (static_cast<int>(q.code.size()) > island.max_length) return std::nullopt;
-  // Slots read, in ascending order, become 0, 1, ...: the same values in the first slots.
+  // The slots read, in ascending order, become 0, 1, ...: the same values in the first slots.
+  const std::vector<int> used = effectiveConstants(q);
+  if (static_cast<int>(q.code.size()) > island.max_length ||
+      static_cast<int>(used.size()) > island.num_constants)
+    return false;
   std::vector<int> slot(q.constants.size(), -1);
-  for (const Instr& in : q.code)
-    for (int a = 0; a < arity(in.op); ++a)
-      if (in.args[a].kind == OperandKind::Const) slot[in.args[a].index] = 0;
-  int used = 0;
-  for (int& s : slot)
-    if (s == 0) s = used++;
-  if (used > island.num_constants) return std::nullopt;
   std::vector<float> values(static_cast<size_t>(run.num_constants), 0.0f);
-  for (size_t i = 0; i < slot.size(); ++i)
-    if (slot[i] >= 0) values[slot[i]] = q.constants[i];
+  for (size_t k = 0; k < used.size(); ++k) {
+    slot[used[k]] = static_cast<int>(k);
+    values[k] = q.constants[used[k]];
+  }
   for (Instr& in : q.code)
     for (int a = 0; a < arity(in.op); ++a)
       if (in.args[a].kind == OperandKind::Const)
         in.args[a].index = static_cast<uint8_t>(slot[in.args[a].index]);
   q.constants = std::move(values);
-  return q;
+  p = std::move(q);
+  return true;
 }
 
 std::vector<int> migrationTargets(int islands, const std::vector<IslandProfile>& profiles,

@@ -490,8 +490,8 @@ void Search::migrate(int generation) {
     const ProgramShape& view = islandShape(island_first_ + k);
     std::vector<Individual> pool = std::move(isl.pop);
     for (auto& m : arrived[k])
-      if (auto p = fitToIsland(m.program, shape_, view))  // what does not fit stays away
-        pool.push_back({std::move(*p), m.obj, false});
+      if (fitToIsland(m.program, shape_, view))  // what does not fit stays away
+        pool.push_back({std::move(m.program), m.obj, false});
     survive(isl, pool, islandSize(island_first_ + k));
   }
 }
@@ -535,7 +535,8 @@ void Search::initialize() {
     int j = 0;
     for (const Program& seed : seeds_) {
       if (j >= size / 2) break;
-      if (auto p = fitToIsland(seed, shape_, view)) inds[first + j++].program = std::move(*p);
+      Program p = seed;
+      if (fitToIsland(p, shape_, view)) inds[first + j++].program = std::move(p);
     }
     first += size;
   }
@@ -590,15 +591,13 @@ void Search::step(bool check_budget) {
     const ProgramShape& view = islandShape(island_first_ + owner[i]);
     if (restart[owner[i]]) {
       const int j = i - first[owner[i]];
-      std::optional<Program> p;
-      if (j < ic.migrants && !archived.empty())
-        p = fitToIsland(archived[rng.below(static_cast<uint32_t>(archived.size()))].program, shape_,
-                        view);
-      if (!p) {
+      Program& p = off[i].program;
+      const bool from_archive = j < ic.migrants && !archived.empty();
+      if (from_archive) p = archived[rng.below(static_cast<uint32_t>(archived.size()))].program;
+      if (!from_archive || !fitToIsland(p, shape_, view)) {
         p = randomProgram(view, init, rng);
-        p->constants.resize(shape_.num_constants, 0.0f);
+        p.constants.resize(shape_.num_constants, 0.0f);
       }
-      off[i].program = std::move(*p);
       continue;
     }
     const int a = tournament(isl, rng);
@@ -627,13 +626,9 @@ void Search::step(bool check_budget) {
       weighted[i] = weightMutate(child, view, rng);
     // Crossover and weights may place a constant in a slot past the island's (they look for a
     // free one among all): renumbered where possible, else the child is its parent again.
-    if (&view != &shape_) {
-      if (auto p = fitToIsland(child, shape_, view)) {
-        child = std::move(*p);
-      } else {
-        child = isl.pop[a].program;
-        weighted[i] = 0;
-      }
+    if (&view != &shape_ && !fitToIsland(child, shape_, view)) {
+      child = isl.pop[a].program;
+      weighted[i] = 0;
     }
     off[i].program = std::move(child);
   }
@@ -705,8 +700,8 @@ void Search::refineArchive() {
   std::vector<std::vector<Individual>> pools(count);
   for (int k = 0; k < count; ++k) pools[k] = std::move(islands_[k].pop);
   for (size_t j = 0; j < inds.size(); ++j)  // a member that does not fit its island stays away
-    if (auto p = fitToIsland(inds[j].program, shape_, islandShape(island_first_ + to[j])))
-      pools[to[j]].push_back({std::move(*p), inds[j].obj, inds[j].refined});
+    if (fitToIsland(inds[j].program, shape_, islandShape(island_first_ + to[j])))
+      pools[to[j]].push_back(std::move(inds[j]));
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(island_first_ + k));
 }

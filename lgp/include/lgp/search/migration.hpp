@@ -14,7 +14,6 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
 #include <vector>
 
 #include "lgp/core/program.hpp"
@@ -82,12 +81,11 @@ struct IslandProfile {
 // constant count.
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile);
 
-// `p` as a program of the run's shape that fits `island` (at most island.max_length opcodes,
-// reading only the first island.num_constants slots): p itself where it already does, else p
+// Makes `p`, a program of the run's shape, fit `island` (at most island.max_length opcodes,
+// reading only the first island.num_constants slots): unchanged where it already does, else
 // with its introns pruned and the constant slots it reads renumbered from 0 (same values, so
-// the same function and objectives). Nothing where even that does not fit.
-std::optional<Program> fitToIsland(const Program& p, const ProgramShape& run,
-                                   const ProgramShape& island);
+// the same function and objectives). False, and p unchanged, where even that does not fit.
+bool fitToIsland(Program& p, const ProgramShape& run, const ProgramShape& island);
 
 // The island that island `from` sends to: the next one on a ring.
 inline int migrationTarget(int from, int islands) {
