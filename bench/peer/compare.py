@@ -21,18 +21,26 @@ from run import KS, k_columns  # noqa: E402  (the peer protocol's ISA bounds, on
 
 
 def load(arms):
-    """[(name, {(table, seed): run})] from name=path arguments."""
+    """[(name, {(table, seed): run})] from name=path[,path...] arguments (an arm's runs may come
+    from several outputs, e.g. seeds 1-2 and seeds 3-4)."""
     out = []
     for a in arms:
-        name, sep, path = a.partition("=")
-        if not sep or not name or not path:
-            sys.exit("compare: %r: expected NAME=results.json" % a)
-        try:
-            with open(path) as f:
-                res = json.load(f)
-        except (OSError, ValueError) as e:
-            sys.exit("compare: %s: %s" % (path, e))
-        out.append((name, {(r["table"], r["seed"]): r for r in res.get("runs", [])}))
+        name, sep, paths = a.partition("=")
+        if not sep or not name or not paths:
+            sys.exit("compare: %r: expected NAME=results.json[,results.json...]" % a)
+        runs = {}
+        for path in paths.split(","):
+            try:
+                with open(path) as f:
+                    res = json.load(f)
+            except (OSError, ValueError) as e:
+                sys.exit("compare: %s: %s" % (path, e))
+            for r in res.get("runs", []):
+                if (r["table"], r["seed"]) in runs:
+                    sys.exit("compare: %s: %s seed %d twice in arm %s" % (path, r["table"],
+                                                                         r["seed"], name))
+                runs[(r["table"], r["seed"])] = r
+        out.append((name, runs))
     return out
 
 
@@ -45,14 +53,39 @@ def fmt(v):
     return "-" if v is None else "%.3g" % v
 
 
-def geomean_ratio(arm, base, k, key):
-    """Geometric mean of arm / base at k over the runs both have figures for, and that count."""
+def log_ratios(arm, base, k, key):
+    """log(arm / base) at k over the runs both have figures for."""
     logs = []
     for ts, run in arm.items():
         a, b = fig(run, k, key), fig(base.get(ts), k, key)
         if a and b:
             logs.append(math.log(a / b))
+    return logs
+
+
+def geomean_ratio(arm, base, k, key):
+    """Geometric mean of arm / base at k over the runs both have figures for, and that count."""
+    logs = log_ratios(arm, base, k, key)
     return (math.exp(sum(logs) / len(logs)), len(logs)) if logs else (None, 0)
+
+
+# Student's t, two-sided 90 % (0.95 quantile), by degrees of freedom 1..30; beyond: 1.645.
+T95 = (6.314, 2.920, 2.353, 2.132, 2.015, 1.943, 1.895, 1.860, 1.833, 1.812, 1.796, 1.782, 1.771,
+       1.761, 1.753, 1.746, 1.740, 1.734, 1.729, 1.725, 1.721, 1.717, 1.714, 1.711, 1.708, 1.706,
+       1.703, 1.701, 1.699, 1.697)
+
+
+def geomean_interval(logs):
+    """90 % interval of the geometric mean ratio (t interval on the log ratios), or None for
+    fewer than 3 runs. Runs of one arm differ from each other far more than 5 %, so an ablation
+    must say how sure its geometric mean is."""
+    n = len(logs)
+    if n < 3:
+        return None
+    m = sum(logs) / n
+    sd = math.sqrt(sum((x - m) ** 2 for x in logs) / (n - 1))
+    h = (T95[n - 2] if n - 1 <= len(T95) else 1.645) * sd / math.sqrt(n)
+    return math.exp(m - h), math.exp(m + h)
 
 
 def report(arms):
@@ -93,12 +126,23 @@ def report(arms):
                         wins += a <= o
             L.append("| %s | %d | %s | %d of %d |" % (name, n, " | ".join(cells), wins, total))
         L.append("")
+        rows = []
+        for name, runs in arms[1:]:
+            iv = [geomean_interval(log_ratios(runs, base, k, key)) for k in KS]
+            if any(iv):
+                rows.append("| %s | %s |" % (name, " | ".join(
+                    "-" if v is None else "%.2f-%.2f" % v for v in iv)))
+        if rows:
+            L += ["90 %% interval of that geometric mean (Student's t on the log ratios; a "
+                  "difference is resolved only where the interval excludes 1):", "",
+                  "| arm | " + k_columns() + " |", "|---|" + "---|" * len(KS)] + rows + [""]
     return "\n".join(L)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("arms", nargs="+", help="NAME=results.json of bench/peer/run.py; first = base")
+    ap.add_argument("arms", nargs="+",
+                    help="NAME=results.json[,results.json...] of bench/peer/run.py; first = base")
     ap.add_argument("-o", "--out", help="write the markdown here as well")
     args = ap.parse_args(argv)
     text = report(load(args.arms))

@@ -25,11 +25,13 @@ import math
 import os
 import re
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DFG_SCENE = os.path.join(REPO, "examples", "scenes", "dfg_64.json")
@@ -549,12 +551,19 @@ def run_together(jobs, deadline_s):
     timer.daemon = True
     timer.start()
     result = {}
-    for _ in procs:  # wait4 on any of ours gives the child's own CPU time and its end time
-        pid, status, usage = os.wait4(-1, 0)
-        p = next(q for q in procs if q.pid == pid)
-        p.returncode = os.waitstatus_to_exitcode(status)
-        result[pid] = (p.returncode, time.monotonic() - t0[pid], usage.ru_utime + usage.ru_stime,
-                       pid in killed)
+    # wait4 on each of ours gives the child's own CPU time and (polled) its end time; never on
+    # any child, since other threads (--jobs) have children of their own.
+    while len(result) < len(procs):
+        for p in procs:
+            if p.pid in result:
+                continue
+            pid, status, usage = os.wait4(p.pid, os.WNOHANG)
+            if pid == p.pid:
+                p.returncode = os.waitstatus_to_exitcode(status)
+                result[pid] = (p.returncode, time.monotonic() - t0[pid],
+                               usage.ru_utime + usage.ru_stime, pid in killed)
+        if len(result) < len(procs):
+            time.sleep(0.02)
     timer.cancel()
     return [result[p.pid] for p in procs]
 
@@ -715,12 +724,39 @@ def run_one(args, run, seed, data_dir, data):
                                             for k, v in j["env"].items()),
                                     shlex.join(j["argv"])) for j in jobs]
     engines_json = os.path.join(d, "engines.json")
-    if args.reuse and os.path.exists(engines_json):
+    if args.operon_from and not (args.reuse and os.path.exists(engines_json)):
+        # Operon's front and usage are the earlier run's; only lgp searches.
+        src = os.path.join(args.operon_from, run["name"], "seed%d" % seed)
+        try:
+            with open(os.path.join(src, "engines.json")) as f:
+                earlier = json.load(f)
+            for name in ("operon-front.csv", "operon.out", "operon.err"):
+                shutil.copyfile(os.path.join(src, name), os.path.join(d, name))
+        except (OSError, ValueError) as e:
+            sys.exit("error: --operon-from: %s" % e)
+        for name in ("lgp-front.json", "engines.json"):
+            if os.path.exists(os.path.join(d, name)):
+                os.remove(os.path.join(d, name))
+        print("[%s seed %d] lgp alone, %g s (Operon's front from %s) ..." % (
+            run["name"], seed, args.budget, src), flush=True)
+        loadavg = " ".join("%.2f" % v for v in os.getloadavg())
+        lgp_usage = run_together(jobs[:1], deadline_s=3 * args.budget + 300)[0]
+        usage = [lgp_usage, earlier["usage"][1]]
+        (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = usage
+        if lrc != 0:
+            sys.exit("error: lgp exited %d; see %s" % (lrc, jobs[0]["stderr"]))
+        commands = commands[:1] + ["# Operon: %s" % c for c in earlier["commands"][1:]]
+        with open(engines_json, "w") as f:
+            json.dump({"usage": usage, "loadavg": loadavg, "commands": commands,
+                       "operon_from": src}, f, indent=1)
+            f.write("\n")
+    elif args.reuse and os.path.exists(engines_json):
         print("[%s seed %d] reusing the fronts of %s" % (run["name"], seed, d), flush=True)
         with open(engines_json) as f:
             saved = json.load(f)
         (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = saved["usage"]
         loadavg = saved.get("loadavg")
+        commands = saved.get("commands", commands)
     else:
         for name in ("lgp-front.json", "operon-front.csv", "engines.json"):
             if os.path.exists(os.path.join(d, name)):
@@ -814,6 +850,12 @@ def report(meta, data_info, results):
     L.append("CPU: %s. Budget %g s wall per engine and output, 1 thread each, both engines of "
              "a run started together; seeds %s." % (
                  meta["cpu"], meta["budget"], ", ".join(str(s) for s in meta["seeds"])))
+    if meta.get("operon_from"):
+        L.append("**Only lgp searched in this output**: Operon's fronts (and its figures below) "
+                 "are those of the earlier runs in `$OPERON_FROM` (same tables, seeds, budget "
+                 "and rows); lgp ran %d run(s) at a time, one thread each, so a run's companion "
+                 "on the second core was %s." % (
+                     meta["jobs"], "another lgp run" if meta["jobs"] > 1 else "nothing"))
     if meta.get("lgp_config_json"):
         L.append("lgp config patch (`--config-json`): %s." % code_span(json.dumps(
             meta["lgp_config_json"], separators=(",", ":"))))
@@ -947,7 +989,18 @@ def parse_args(argv=None):
     ap.add_argument("--reuse", action="store_true",
                     help="where DIR already holds a run's fronts (its engines.json), measure and "
                          "score them again instead of searching")
+    ap.add_argument("--operon-from", metavar="DIR",
+                    help="take Operon's fronts from an earlier --out DIR of the same tables, "
+                         "seeds and budget, and run only lgp (to compare lgp configurations "
+                         "against one set of Operon runs)")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="runs at once, one core each (needs --operon-from: with Operon every "
+                         "run already takes two cores)")
     args = ap.parse_args(argv)
+    if args.jobs < 1:
+        ap.error("--jobs must be >= 1")
+    if args.jobs > 1 and not args.operon_from:
+        ap.error("--jobs > 1 needs --operon-from (lgp and Operon already take two cores)")
     args.config_patch = {}
     if args.config_json:
         text = args.config_json
@@ -1002,8 +1055,26 @@ def parse_args(argv=None):
     return args, ap
 
 
+def check_operon_from(args, ap):
+    """The earlier output must hold the same tables and seeds at the same budget."""
+    try:
+        with open(os.path.join(args.operon_from, "results.json")) as f:
+            meta = json.load(f)["meta"]
+    except (OSError, ValueError, KeyError) as e:
+        ap.error("--operon-from: %s" % e)
+    if meta.get("budget") != args.budget:
+        ap.error("--operon-from: its budget is %s s, this run's %s s" % (meta.get("budget"),
+                                                                        args.budget))
+    missing = [s for s in args.seed_list if s not in meta.get("seeds", [])]
+    if missing:
+        ap.error("--operon-from: seeds %s are not in it" % missing)
+
+
 def main():
     args, ap = parse_args()
+    if args.operon_from:
+        args.operon_from = os.path.abspath(args.operon_from)
+        check_operon_from(args, ap)
     if not args.operon or not os.access(args.operon, os.X_OK):
         ap.error("operon_nsgp not found: give --operon PATH or set OPERON_NSGP")
     if not os.access(args.lgp, os.X_OK):
@@ -1018,22 +1089,52 @@ def main():
             "check_tolerance": {"rel": CHECK_REL, "float32_ulps_of_max_abs_y": CHECK_ULPS},
             "command": shlex.join([sys.executable] + sys.argv)}
     print("CPU: %s; load average %s" % (meta["cpu"], meta["loadavg"]), flush=True)
-    data_info, results = {}, []
-    shorten = shortener(out, args.lgp, args.operon)
+    if args.operon_from:
+        meta["operon_from"] = args.operon_from
+        meta["jobs"] = args.jobs
+    data_info, tasks = {}, []
+    shorten = shortener(out, args.lgp, args.operon, args.operon_from)
     for run in args.runs:
         d = os.path.join(out, run["name"])
         os.makedirs(d, exist_ok=True)
         data_info[run["name"]] = prepare_data(args.lgp, run, d)
-        for seed in args.seed_list:
-            results.append(run_one(args, run, seed, d, data_info[run["name"]]))
-            write_outputs(out, meta, data_info, results, shorten)
-    print(write_outputs(out, meta, data_info, results, shorten))
+        if args.operon_from:
+            same_rows(os.path.join(args.operon_from, run["name"]), d)
+        tasks += [(run, seed, d) for seed in args.seed_list]
+    done, lock = {}, threading.Lock()
+
+    def one(i):
+        run, seed, d = tasks[i]
+        r = run_one(args, run, seed, d, data_info[run["name"]])
+        with lock:  # the outputs hold the finished runs in the order of the protocol
+            done[i] = r
+            write_outputs(out, meta, data_info, [done[j] for j in sorted(done)], shorten)
+
+    with ThreadPoolExecutor(max_workers=args.jobs) as pool:
+        for f in [pool.submit(one, i) for i in range(len(tasks))]:
+            f.result()
+    print(write_outputs(out, meta, data_info, [done[j] for j in sorted(done)], shorten))
 
 
-def shortener(out, lgp, operon):
-    """Machine paths out of the report: $OUT, $OPERON_NSGP, $LGP (outside the repository),
-    paths relative to the repository, python3."""
+def same_rows(earlier, d):
+    """Operon's figures are comparable only on the same training and held-out rows."""
+    for name in ("train.csv", "heldout.csv"):
+        try:
+            with open(os.path.join(earlier, name), "rb") as a, \
+                    open(os.path.join(d, name), "rb") as b:
+                if a.read() != b.read():
+                    sys.exit("error: --operon-from: %s differs from this run's" %
+                             os.path.join(earlier, name))
+        except OSError as e:
+            sys.exit("error: --operon-from: %s" % e)
+
+
+def shortener(out, lgp, operon, operon_from=None):
+    """Machine paths out of the report: $OUT, $OPERON_NSGP, $OPERON_FROM, $LGP (outside the
+    repository), paths relative to the repository, python3."""
     pairs = [(out, "$OUT"), (operon, "$OPERON_NSGP")]
+    if operon_from:
+        pairs.append((operon_from, "$OPERON_FROM"))
     if not lgp.startswith(REPO + os.sep):
         pairs.append((lgp, "$LGP"))
     pairs += [(REPO + os.sep, ""), (sys.executable, "python3")]

@@ -311,6 +311,76 @@ class CompareArms(unittest.TestCase):
         self.assertIn("| arm | 2 | 1.00 | - |", text)
         self.assertIn("| 1 of 3 |", text)  # a at 8 is below Operon; b and c are not
 
+    def test_interval_of_the_geometric_mean(self):
+        # log ratios 0, ln 2, ln 4: mean ln 2, sd ln 2, t(2 df) = 2.920, half width 2.920 ln2/sqrt3
+        logs = [0.0, math.log(2), math.log(4)]
+        lo, hi = compare.geomean_interval(logs)
+        h = 2.920 * math.log(2) / math.sqrt(3)
+        self.assertAlmostEqual(lo, math.exp(math.log(2) - h))
+        self.assertAlmostEqual(hi, math.exp(math.log(2) + h))
+        self.assertIsNone(compare.geomean_interval(logs[:2]))  # too few runs to say
+
+    def test_an_arm_from_several_outputs(self):
+        d = tempfile.mkdtemp()
+
+        def out(name, seeds):
+            path = os.path.join(d, name)
+            with open(path, "w") as f:
+                json.dump({"runs": [{"table": "t", "seed": s, "per_k": {}} for s in seeds]}, f)
+            return path
+        a, b, c = out("a.json", [1, 2]), out("b.json", [3]), out("c.json", [2])
+        arms = compare.load(["x=%s,%s" % (a, b)])
+        self.assertEqual(sorted(arms[0][1]), [("t", 1), ("t", 2), ("t", 3)])
+        with self.assertRaises(SystemExit):  # seed 2 twice in one arm
+            compare.load(["x=%s,%s" % (a, c)])
+
+
+class Jobs(unittest.TestCase):
+    """--jobs runs lgp runs side by side: each must reap only its own children."""
+
+    def test_concurrent_run_together_reaps_its_own(self):
+        import threading
+        out = {}
+
+        def jobs(tag, seconds):
+            d = tempfile.mkdtemp()
+            return [{"argv": ["sh", "-c", "sleep %g; exit %d" % (seconds, code)], "env": {},
+                     "cwd": d, "stdout": os.path.join(d, "o%d" % code),
+                     "stderr": os.path.join(d, "e%d" % code)} for code in (tag, tag + 1)]
+
+        def one(tag, seconds):
+            out[tag] = run.run_together(jobs(tag, seconds), deadline_s=60)
+
+        threads = [threading.Thread(target=one, args=(t, s)) for t, s in ((10, 0.4), (20, 0.1))]
+        for t in threads:
+            t.start()
+        subprocess.run(["sh", "-c", "sleep 0.2"], check=True)  # a third thread's child
+        for t in threads:
+            t.join()
+        self.assertEqual([r[0] for r in out[10]], [10, 11])
+        self.assertEqual([r[0] for r in out[20]], [20, 21])
+        self.assertGreater(min(r[1] for r in out[10]), 0.35)
+        self.assertLess(max(r[1] for r in out[20]), 0.35)  # its own end time, not the others'
+
+    def test_jobs_need_operon_from(self):
+        with self.assertRaises(SystemExit):
+            run.parse_args(["--out", "x", "--jobs", "2"])
+        with self.assertRaises(SystemExit):
+            run.parse_args(["--out", "x", "--jobs", "0", "--operon-from", "y"])
+        args, _ = run.parse_args(["--out", "x", "--jobs", "2", "--operon-from", "y"])
+        self.assertEqual(args.jobs, 2)
+
+    def test_operon_from_needs_the_same_budget_and_seeds(self):
+        d = tempfile.mkdtemp()
+        with open(os.path.join(d, "results.json"), "w") as f:
+            json.dump({"meta": {"budget": 300, "seeds": [1, 2]}}, f)
+        for argv in (["--budget", "200"], ["--seeds", "3"]):
+            args, ap = run.parse_args(["--out", "x", "--operon-from", d] + argv)
+            with self.assertRaises(SystemExit):
+                run.check_operon_from(args, ap)
+        args, ap = run.parse_args(["--out", "x", "--operon-from", d, "--seeds", "2"])
+        run.check_operon_from(args, ap)  # accepted
+
 
 if __name__ == "__main__":
     unittest.main()
