@@ -133,7 +133,7 @@ def report(arms):
                 rows.append("| %s | %s |" % (name, " | ".join(
                     "-" if v is None else "%.2f-%.2f" % v for v in iv)))
         if rows:
-            L += ["90 %% interval of that geometric mean (Student's t on the log ratios; a "
+            L += ["90 % interval of that geometric mean (Student's t on the log ratios; a "
                   "difference is resolved only where the interval excludes 1):", "",
                   "| arm | " + k_columns() + " |", "|---|" + "---|" * len(KS)] + rows + [""]
     return "\n".join(L)
