@@ -847,9 +847,9 @@ def check_summary(members):
 
 def report(meta, data_info, results):
     L = ["# lgp and Operon in measured GPU instructions, on held-out rows", ""]
-    L.append("CPU: %s. Budget %g s wall per engine and output, 1 thread each, both engines of "
-             "a run started together; seeds %s." % (
-                 meta["cpu"], meta["budget"], ", ".join(str(s) for s in meta["seeds"])))
+    L.append("CPU: %s. Budget %g s wall per engine and output, 1 thread each, %s; seeds %s." % (
+        meta["cpu"], meta["budget"], "lgp alone (below)" if meta.get("operon_from") else
+        "both engines of a run started together", ", ".join(str(s) for s in meta["seeds"])))
     if meta.get("operon_from"):
         L.append("**Only lgp searched in this output**: Operon's fronts (and its figures below) "
                  "are those of the earlier runs in `$OPERON_FROM` (same tables, seeds, budget "
