@@ -724,33 +724,7 @@ def run_one(args, run, seed, data_dir, data):
                                             for k, v in j["env"].items()),
                                     shlex.join(j["argv"])) for j in jobs]
     engines_json = os.path.join(d, "engines.json")
-    if args.operon_from and not (args.reuse and os.path.exists(engines_json)):
-        # Operon's front and usage are the earlier run's; only lgp searches.
-        src = os.path.join(args.operon_from, run["name"], "seed%d" % seed)
-        try:
-            with open(os.path.join(src, "engines.json")) as f:
-                earlier = json.load(f)
-            for name in ("operon-front.csv", "operon.out", "operon.err"):
-                shutil.copyfile(os.path.join(src, name), os.path.join(d, name))
-        except (OSError, ValueError) as e:
-            sys.exit("error: --operon-from: %s" % e)
-        for name in ("lgp-front.json", "engines.json"):
-            if os.path.exists(os.path.join(d, name)):
-                os.remove(os.path.join(d, name))
-        print("[%s seed %d] lgp alone, %g s (Operon's front from %s) ..." % (
-            run["name"], seed, args.budget, src), flush=True)
-        loadavg = " ".join("%.2f" % v for v in os.getloadavg())
-        lgp_usage = run_together(jobs[:1], deadline_s=3 * args.budget + 300)[0]
-        usage = [lgp_usage, earlier["usage"][1]]
-        (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = usage
-        if lrc != 0:
-            sys.exit("error: lgp exited %d; see %s" % (lrc, jobs[0]["stderr"]))
-        commands = commands[:1] + ["# Operon: %s" % c for c in earlier["commands"][1:]]
-        with open(engines_json, "w") as f:
-            json.dump({"usage": usage, "loadavg": loadavg, "commands": commands,
-                       "operon_from": src}, f, indent=1)
-            f.write("\n")
-    elif args.reuse and os.path.exists(engines_json):
+    if args.reuse and os.path.exists(engines_json):
         print("[%s seed %d] reusing the fronts of %s" % (run["name"], seed, d), flush=True)
         with open(engines_json) as f:
             saved = json.load(f)
@@ -761,16 +735,36 @@ def run_one(args, run, seed, data_dir, data):
         for name in ("lgp-front.json", "operon-front.csv", "engines.json"):
             if os.path.exists(os.path.join(d, name)):
                 os.remove(os.path.join(d, name))
-        print("[%s seed %d] lgp and Operon together, %g s each ..." % (run["name"], seed,
-                                                                       args.budget), flush=True)
+        saved = {}
+        if args.operon_from:  # Operon's front and usage are the earlier run's; only lgp searches
+            src = os.path.join(args.operon_from, run["name"], "seed%d" % seed)
+            try:
+                with open(os.path.join(src, "engines.json")) as f:
+                    earlier = json.load(f)
+                for name in ("operon-front.csv", "operon.out", "operon.err"):
+                    shutil.copyfile(os.path.join(src, name), os.path.join(d, name))
+            except (OSError, ValueError) as e:
+                sys.exit("error: --operon-from: %s" % e)
+            jobs_run = jobs[:1]
+            commands = commands[:1] + ["# Operon: %s" % c for c in earlier["commands"][1:]]
+            saved["operon_from"] = src
+            print("[%s seed %d] lgp alone, %g s (Operon's front from %s) ..." % (
+                run["name"], seed, args.budget, src), flush=True)
+        else:
+            jobs_run = jobs
+            print("[%s seed %d] lgp and Operon together, %g s each ..." % (
+                run["name"], seed, args.budget), flush=True)
         loadavg = " ".join("%.2f" % v for v in os.getloadavg())
-        usage = run_together(jobs, deadline_s=3 * args.budget + 300)
-        (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = usage
-        for label, rc, j in (("lgp", lrc, jobs[0]), ("operon", orc, jobs[1])):
+        usage = run_together(jobs_run, deadline_s=3 * args.budget + 300)
+        for label, (rc, _, _, _), j in zip(("lgp", "operon"), usage, jobs_run):
             if rc != 0:
                 sys.exit("error: %s exited %d; see %s" % (label, rc, j["stderr"]))
+        if args.operon_from:
+            usage.append(earlier["usage"][1])
+        (lrc, lwall, lcpu, lkill), (orc, owall, ocpu, okill) = usage
+        saved.update(usage=usage, loadavg=loadavg, commands=commands)
         with open(engines_json, "w") as f:
-            json.dump({"usage": usage, "loadavg": loadavg, "commands": commands}, f, indent=1)
+            json.dump(saved, f, indent=1)
             f.write("\n")
     score_cmds = []
     print("[%s seed %d] measuring and scoring both fronts ..." % (run["name"], seed), flush=True)
