@@ -20,6 +20,7 @@ bench/peer/README.md gives the protocol and says how each figure is computed.
 import argparse
 import copy
 import csv
+import hashlib
 import json
 import math
 import os
@@ -193,6 +194,11 @@ def write_rows(path, inputs, rows):
             f.write(",".join(x) + ",%r\n" % y)
 
 
+def file_sha256(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
 def prepare_data(lgp, run, d):
     """Writes d/train.csv and d/heldout.csv (inputs..., y); returns a description."""
     commands, inputs = [], run["inputs"]
@@ -231,7 +237,9 @@ def prepare_data(lgp, run, d):
     info.update(train_rows=len(rows), train_copies=copies, heldout_rows=len(held),
                 heldout_copies=hcopies, heldout_in_train=overlap,
                 var_train=population_variance([y for _, y in rows]),
-                var_heldout=population_variance([y for _, y in held]))
+                var_heldout=population_variance([y for _, y in held]),
+                train_sha256=file_sha256(os.path.join(d, "train.csv")),
+                heldout_sha256=file_sha256(os.path.join(d, "heldout.csv")))
     # Operon reads one file: the training rows, then the held-out rows as its test range
     # (reported by Operon, never trained on).
     with open(os.path.join(d, "operon-data.csv"), "w") as f:
@@ -738,13 +746,18 @@ def run_one(args, run, seed, data_dir, data):
         saved = {}
         if args.operon_from:  # Operon's front and usage are the earlier run's; only lgp searches
             src = os.path.join(args.operon_from, run["name"], "seed%d" % seed)
-            try:
-                with open(os.path.join(src, "engines.json")) as f:
-                    earlier = json.load(f)
-                for name in ("operon-front.csv", "operon.out", "operon.err"):
-                    shutil.copyfile(os.path.join(src, name), os.path.join(d, name))
-            except (OSError, ValueError) as e:
-                sys.exit("error: --operon-from: %s" % e)
+            if os.path.exists(os.path.join(src, "engines.json")):
+                try:
+                    with open(os.path.join(src, "engines.json")) as f:
+                        earlier = json.load(f)
+                    for name in ("operon-front.csv", "operon.out", "operon.err"):
+                        shutil.copyfile(os.path.join(src, name), os.path.join(d, name))
+                except (OSError, ValueError) as e:
+                    sys.exit("error: --operon-from: %s" % e)
+            else:  # a committed output keeps only results.json: Operon's scored front is there
+                src = os.path.join(args.operon_from, "results.json")
+                earlier = saved_operon_run(src, run["name"], seed)
+                saved["operon_results"] = src
             jobs_run = jobs[:1]
             commands = commands[:1] + ["# Operon: %s" % c for c in earlier["commands"][1:]]
             saved["operon_from"] = src
@@ -770,10 +783,16 @@ def run_one(args, run, seed, data_dir, data):
     print("[%s seed %d] measuring and scoring both fronts ..." % (run["name"], seed), flush=True)
     lgp_members, lgp_prog = score_lgp(args, os.path.join(d, "lgp-front.json"), inputs,
                                       data_dir, d, score_cmds)
-    op_members, dropped = read_operon_front(os.path.join(d, "operon-front.csv"),
-                                            data["var_train"], data["var_heldout"])
-    train_rows = load_rows(os.path.join(data_dir, "train.csv"), inputs)
-    score_operon(args, op_members, inputs, data_dir, d, train_rows, score_cmds)
+    if saved.get("operon_results"):  # measured and scored when that output was written
+        earlier = saved_operon_run(saved["operon_results"], run["name"], seed)
+        op_members, dropped = earlier["operon"]["members"], earlier["operon"]["dropped_not_finite"]
+        op_log = {k: earlier["operon"][k] for k in ("generations", "evaluations", "search_s")}
+    else:
+        op_members, dropped = read_operon_front(os.path.join(d, "operon-front.csv"),
+                                                data["var_train"], data["var_heldout"])
+        train_rows = load_rows(os.path.join(data_dir, "train.csv"), inputs)
+        score_operon(args, op_members, inputs, data_dir, d, train_rows, score_cmds)
+        op_log = operon_log(jobs[1]["stdout"])
     lgp_k, op_k = per_k(lgp_members), per_k(op_members)
     table = {k: {"lgp_rms": lgp_k[k]["rms"], "operon_rms": op_k[k]["rms"],
                  "rms_ratio": ratio(lgp_k[k]["rms"], op_k[k]["rms"]),
@@ -785,7 +804,7 @@ def run_one(args, run, seed, data_dir, data):
         "table": run["name"], "title": run["title"], "seed": seed, "dir": d, "loadavg": loadavg,
         "commands": commands, "scoring_commands": score_cmds, "per_k": table,
         "lgp": dict(lgp_prog, wall_s=lwall, cpu_s=lcpu, killed=lkill, members=lgp_members),
-        "operon": dict(operon_log(jobs[1]["stdout"]), wall_s=owall, cpu_s=ocpu, killed=okill,
+        "operon": dict(op_log, wall_s=owall, cpu_s=ocpu, killed=okill,
                        members=op_members, dropped_not_finite=dropped),
     }
 
@@ -1049,13 +1068,37 @@ def parse_args(argv=None):
     return args, ap
 
 
+def saved_operon_run(results_path, table, seed):
+    """The run of (table, seed) in an earlier output's results.json."""
+    try:
+        with open(results_path) as f:
+            runs = json.load(f)["runs"]
+    except (OSError, ValueError, KeyError) as e:
+        sys.exit("error: --operon-from: %s" % e)
+    found = [r for r in runs if r.get("table") == table and r.get("seed") == seed]
+    if not found:
+        sys.exit("error: --operon-from: %s has no run of %s, seed %d" % (results_path, table, seed))
+    r = found[0]
+    # the usage row of run_together: (exit code, wall s, CPU s, killed)
+    r["usage"] = [None, [0, r["operon"]["wall_s"], r["operon"]["cpu_s"], r["operon"]["killed"]]]
+    return r
+
+
+# Fields of prepare_data's description that fix the rows an engine trains and is scored on.
+SAME_ROWS_FIELDS = ("inputs", "weights", "train_grid", "heldout_grid", "train_rows", "heldout_rows",
+                    "heldout_in_train", "var_train", "var_heldout", "train_sha256",
+                    "heldout_sha256")
+
+
 def check_operon_from(args, ap):
     """The earlier output must hold the same tables and seeds at the same budget."""
     try:
         with open(os.path.join(args.operon_from, "results.json")) as f:
-            meta = json.load(f)["meta"]
+            saved = json.load(f)
+        meta = saved["meta"]
     except (OSError, ValueError, KeyError) as e:
         ap.error("--operon-from: %s" % e)
+    args.operon_from_tables = saved.get("tables", {})
     if meta.get("budget") != args.budget:
         ap.error("--operon-from: its budget is %s s, this run's %s s" % (meta.get("budget"),
                                                                         args.budget))
@@ -1069,11 +1112,13 @@ def main():
     if args.operon_from:
         args.operon_from = os.path.abspath(args.operon_from)
         check_operon_from(args, ap)
-    if not args.operon or not os.access(args.operon, os.X_OK):
+    if not args.operon_from and (not args.operon or not os.access(args.operon, os.X_OK)):
         ap.error("operon_nsgp not found: give --operon PATH or set OPERON_NSGP")
     if not os.access(args.lgp, os.X_OK):
         ap.error("%s not found: build the lgp target, or give --lgp PATH" % args.lgp)
-    args.lgp, args.operon = os.path.abspath(args.lgp), os.path.abspath(args.operon)
+    args.lgp = os.path.abspath(args.lgp)
+    # with --operon-from Operon does not run; its commands come from the earlier output
+    args.operon = os.path.abspath(args.operon) if args.operon else "$OPERON_NSGP"
     out = os.path.abspath(args.out)
     os.makedirs(out, exist_ok=True)
     meta = {"cpu": cpu_model(), "loadavg": " ".join("%.2f" % v for v in os.getloadavg()),
@@ -1093,7 +1138,8 @@ def main():
         os.makedirs(d, exist_ok=True)
         data_info[run["name"]] = prepare_data(args.lgp, run, d)
         if args.operon_from:
-            same_rows(os.path.join(args.operon_from, run["name"]), d)
+            same_rows(os.path.join(args.operon_from, run["name"]), d, data_info[run["name"]],
+                      args.operon_from_tables.get(run["name"]))
         tasks += [(run, seed, d) for seed in args.seed_list]
     done, lock = {}, threading.Lock()
 
@@ -1110,8 +1156,18 @@ def main():
     print(write_outputs(out, meta, data_info, [done[j] for j in sorted(done)], shorten))
 
 
-def same_rows(earlier, d):
-    """Operon's figures are comparable only on the same training and held-out rows."""
+def same_rows(earlier, d, info=None, saved_info=None):
+    """Operon's figures are comparable only on the same training and held-out rows: the files
+    when the earlier output still has them, else the description its results.json keeps."""
+    if not os.path.exists(os.path.join(earlier, "train.csv")):
+        if saved_info is None:
+            sys.exit("error: --operon-from: %s has neither its rows nor their description" %
+                     earlier)
+        for k in SAME_ROWS_FIELDS:
+            if k in saved_info and saved_info[k] != info.get(k):
+                sys.exit("error: --operon-from: the rows differ from this run's (%s: %r, here "
+                         "%r)" % (k, saved_info[k], info.get(k)))
+        return
     for name in ("train.csv", "heldout.csv"):
         try:
             with open(os.path.join(earlier, name), "rb") as a, \
@@ -1126,7 +1182,7 @@ def same_rows(earlier, d):
 def shortener(out, lgp, operon, operon_from=None):
     """Machine paths out of the report: $OUT, $OPERON_NSGP, $OPERON_FROM, $LGP (outside the
     repository), paths relative to the repository, python3."""
-    pairs = [(out, "$OUT"), (operon, "$OPERON_NSGP")]
+    pairs = [(out, "$OUT")] + ([(operon, "$OPERON_NSGP")] if operon != "$OPERON_NSGP" else [])
     if operon_from:
         pairs.append((operon_from, "$OPERON_FROM"))
     if not lgp.startswith(REPO + os.sep):

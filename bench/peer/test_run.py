@@ -381,6 +381,33 @@ class Jobs(unittest.TestCase):
         args, ap = run.parse_args(["--out", "x", "--operon-from", d, "--seeds", "2"])
         run.check_operon_from(args, ap)  # accepted
 
+    def test_operon_from_a_committed_output(self):
+        """Without its run folders an earlier output gives Operon's scored run from its
+        results.json, after the rows' description matches this run's."""
+        d = tempfile.mkdtemp()
+        info = {"inputs": ["mu"], "weights": {"y": 1.0}, "train_rows": 4, "heldout_rows": 3,
+                "var_train": 0.25, "var_heldout": 0.5, "train_grid": {"mu": 4}}
+        member = {"isa": 3.0, "heldout_rms": 0.1, "heldout_max": 0.2, "check": True}
+        operon = {"generations": 7, "evaluations": 70, "search_s": 300.0, "wall_s": 300.5,
+                  "cpu_s": 299.0, "killed": False, "members": [member], "dropped_not_finite": 0}
+        with open(os.path.join(d, "results.json"), "w") as f:
+            json.dump({"meta": {"budget": 300, "seeds": [1]}, "tables": {"t": info},
+                       "runs": [{"table": "t", "seed": 1, "commands": ["lgp", "operon --seed 1"],
+                                 "operon": operon}]}, f)
+        r = run.saved_operon_run(os.path.join(d, "results.json"), "t", 1)
+        self.assertEqual(r["operon"]["members"], [member])
+        self.assertEqual(r["usage"][1], [0, 300.5, 299.0, False])
+        with self.assertRaises(SystemExit):
+            run.saved_operon_run(os.path.join(d, "results.json"), "t", 2)
+        args, ap = run.parse_args(["--out", "x", "--operon-from", d, "--seeds", "1"])
+        run.check_operon_from(args, ap)
+        self.assertEqual(args.operon_from_tables, {"t": info})
+        run.same_rows(os.path.join(d, "t"), d, dict(info, train_sha256="ab"), info)  # accepted
+        with self.assertRaises(SystemExit):
+            run.same_rows(os.path.join(d, "t"), d, dict(info, var_train=0.26), info)
+        with self.assertRaises(SystemExit):  # neither rows nor a description
+            run.same_rows(os.path.join(d, "t"), d, info, None)
+
 
 if __name__ == "__main__":
     unittest.main()
