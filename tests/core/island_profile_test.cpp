@@ -198,17 +198,78 @@ TEST(MigrationTopology, ByProfileIsARingPerProfile) {
   }
 }
 
+// The population is split in proportion to the shares; equal shares split it as before
+// (population / islands, the remainder to the first islands), and no island gets fewer than 4.
+TEST(IslandSizes, PopulationFollowsTheShares) {
+  for (int n : {16, 17, 99, 100, 1000, 1003})
+    for (int count = 1; count <= 6 && n / count >= 4; ++count) {
+      const auto sizes = islandSizes(n, count, {});
+      ASSERT_EQ(static_cast<int>(sizes.size()), count);
+      for (int k = 0; k < count; ++k)
+        EXPECT_EQ(sizes[k], n / count + (k < n % count ? 1 : 0)) << n << " " << count;
+      EXPECT_EQ(islandSizes(n, count, {IslandProfile{8, 2, 0}, IslandProfile{}}), sizes);
+    }
+  IslandProfile small{32, 8, 0}, half{};
+  half.share = 0.5;
+  EXPECT_EQ(islandSizes(700, 4, {small, small, small, half}),
+            (std::vector<int>{200, 200, 200, 100}));
+  EXPECT_EQ(islandSizes(1000, 5, {small, small, small, small, half}),
+            (std::vector<int>{223, 222, 222, 222, 111}));  // 222.2 x 4 + 111.1: one left over
+  EXPECT_EQ(islandSizes(1000, 4, {small, half}), (std::vector<int>{333, 167, 333, 167}));
+  IslandProfile tiny{};
+  tiny.share = 0.01;
+  EXPECT_EQ(islandSizes(40, 2, {small, tiny}), (std::vector<int>{40, 4}));  // at least 4
+}
+
+// A run with shares: every island holds its share after every generation (survival,
+// restarts, migration), a checkpoint taken mid-run resumes to the uninterrupted front, and the
+// same seed gives the same front.
+TEST(IslandSizes, SharedRunsHoldTheirSizesAndResume) {
+  auto cfg = parseRunConfig(
+      profileConfig(J(
+          R"([{"max_length": 6, "constants": 2, "weight_rate": 0, "share": 2}, {"share": 0.5}])")),
+      ".");
+  ASSERT_TRUE(cfg.hasValue()) << cfg.error();
+  cfg->search.islands.restart_after = 4;
+  const Table t = test::gridTable(12);
+  const auto want = islandSizes(96, 4, cfg->search.islands.profiles);
+  EXPECT_EQ(want, (std::vector<int>{38, 10, 38, 10}));
+  Search s(*cfg, t);
+  nlohmann::json mid;
+  for (int g = 0; g <= cfg->search.generations; ++g) {
+    s.step();
+    const nlohmann::json ck = s.checkpoint();
+    ASSERT_EQ(ck.at("islands").size(), 4u);
+    for (size_t k = 0; k < 4; ++k)
+      ASSERT_EQ(static_cast<int>(ck.at("islands")[k].at("population").size()), want[k])
+          << "island " << k << " generation " << g;
+    if (g == 10) mid = ck;
+  }
+  std::vector<std::string> whole;
+  for (const auto& e : s.front()) whole.push_back(e.formula);
+  EXPECT_EQ(frontOf(*cfg, t), whole);
+  Search resumed(*cfg, t);
+  ASSERT_TRUE(resumed.restore(mid)) << "resume";
+  resumed.run();
+  std::vector<std::string> again;
+  for (const auto& e : resumed.front()) again.push_back(e.formula);
+  EXPECT_EQ(again, whole);
+}
+
 TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
-  auto ok = parseRunConfig(profileConfig(J(R"([{"max_length": 8, "weight_rate": 0}, {}])")), ".");
+  auto ok = parseRunConfig(
+      profileConfig(J(R"([{"max_length": 8, "weight_rate": 0}, {"share": 0.5}])")), ".");
   ASSERT_TRUE(ok.hasValue()) << ok.error();
   ASSERT_EQ(ok->search.islands.profiles.size(), 2u);
   EXPECT_EQ(ok->search.islands.profiles[0].max_length, 8);
   EXPECT_EQ(ok->search.islands.profiles[0].constants, 0);
   EXPECT_EQ(ok->search.islands.profiles[0].weight_rate, 0);
   EXPECT_LT(ok->search.islands.profiles[1].weight_rate, 0);
+  EXPECT_EQ(ok->search.islands.profiles[0].share, 1);
+  EXPECT_EQ(ok->search.islands.profiles[1].share, 0.5);
   const nlohmann::json round = toJson(*ok);
   EXPECT_EQ(round["search"]["islands"]["profiles"],
-            nlohmann::json::parse(R"([{"max_length": 8, "weight_rate": 0}, {}])"));
+            nlohmann::json::parse(R"([{"max_length": 8, "weight_rate": 0}, {"share": 0.5}])"));
   auto again = parseRunConfig(round, ".");
   ASSERT_TRUE(again.hasValue()) << again.error();
   EXPECT_EQ(again->search.islands.profiles, ok->search.islands.profiles);
@@ -234,6 +295,7 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
       {R"([{"max_length": 40}])", "/search/islands/profiles/0/max_length"},
       {R"([{}, {"constants": 17}])", "/search/islands/profiles/1/constants"},
       {R"([{"weight_rate": 2}])", "/search/islands/profiles/0/weight_rate"},
+      {R"([{}, {"share": 0}])", "/search/islands/profiles/1/share"},
       {R"([{"length": 4}])", "/search/islands/profiles/0/length"},
       {"[3]", "/search/islands/profiles/0"},
   };

@@ -164,8 +164,9 @@ TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
   EXPECT_EQ(fronts[0], fronts[1]);
 }
 
-// Island profiles over MPI: an island's profile follows its global index, so islands 0 and 2
-// (one on each rank) hold only small programs, whatever arrives from the other rank; the sync
+// Island profiles over MPI: an island's profile (and its share of the population) follows its
+// global index, so islands 0 and 2 (one on each rank) hold only small programs, and as many as
+// their share gives, whatever arrives from the other rank; the sync
 // mode stays reproducible with either topology (by_profile: every batch crosses ranks).
 TEST_F(Mpi, IslandProfilesHoldOnEveryRank) {
   for (const std::string topology : {"ring", "by_profile"}) {
@@ -173,8 +174,9 @@ TEST_F(Mpi, IslandProfilesHoldOnEveryRank) {
     json j = base(24, "sync");
     j["search"]["islands"]["topology"] = topology;
     j["search"]["variation"] = {{"weight_rate", 0.3}};
-    j["search"]["islands"]["profiles"] = {{{"max_length", 5}, {"constants", 1}, {"weight_rate", 0}},
-                                          json::object()};
+    j["search"]["islands"]["profiles"] = {
+        {{"max_length", 5}, {"constants", 1}, {"weight_rate", 0}, {"share", 0.5}}, json::object()};
+    const std::vector<size_t> sizes = {13, 27, 13, 27};  // 80 programs at shares 0.5, 1, 0.5, 1
     const fs::path ck = dir / "ck.json";
     const std::string cfg = config(j);
     std::array<std::string, 2> fronts;
@@ -191,6 +193,7 @@ TEST_F(Mpi, IslandProfilesHoldOnEveryRank) {
       int global = 0, small = 0, longer = 0;
       for (const auto& part : state["parts"])
         for (const auto& isl : part["islands"]) {
+          EXPECT_EQ(isl["population"].size(), sizes[global]) << "island " << global;
           for (const auto& m : isl["population"]) {
             const auto& code = m["program"]["code"];
             if (global % 2 == 1) {

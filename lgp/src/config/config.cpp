@@ -426,14 +426,15 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
     const auto& v = o.at("profiles");
     if (!v.is_array() || v.empty())
       fail(o.path("profiles"),
-           "must be a non-empty array of {\"max_length\", \"constants\", \"weight_rate\"} "
-           "objects (island k takes entry k mod its size)");
+           "must be a non-empty array of {\"max_length\", \"constants\", \"weight_rate\", "
+           "\"share\"} objects (island k takes entry k mod its size)");
     for (size_t i = 0; i < v.size(); ++i) {
       Obj p(v[i], jsonPath(o.path("profiles"), i));
       IslandProfile ip;
       p.integer("max_length", ip.max_length, 0, 255);
       p.integer("constants", ip.constants, 0, 255);
       p.number("weight_rate", ip.weight_rate, 0, 1);
+      p.number("share", ip.share, 0.01, 100);
       p.finish();
       c.profiles.push_back(ip);
     }
@@ -869,6 +870,7 @@ nlohmann::json toJson(const RunConfig& c) {
       if (ip.max_length != 0) e["max_length"] = ip.max_length;
       if (ip.constants != 0) e["constants"] = ip.constants;
       if (ip.weight_rate >= 0) e["weight_rate"] = ip.weight_rate;
+      if (ip.share != 1) e["share"] = ip.share;
       a.push_back(std::move(e));
     }
   }

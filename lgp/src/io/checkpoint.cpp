@@ -168,9 +168,10 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
       if (total < 1 || total > n)
         return Status::error("checkpoint: " + std::to_string(total) +
                              " islands for a population of " + std::to_string(n));
+      const std::vector<int> sizes = islandSizes(n, total, s.cfg_.search.islands.profiles);
       for (int k = 0; k < take_count; ++k) {
         const int global = s.range_set_ ? s.island_first_ + k : k;
-        const int want = n / total + (global < n % total ? 1 : 0);
+        const int want = sizes[static_cast<size_t>(global)];
         const size_t got = islands[static_cast<size_t>(k)].pop.size();
         if (got != static_cast<size_t>(want))
           return Status::error("checkpoint: island " + std::to_string(global) + " holds " +

@@ -1,6 +1,7 @@
 #include "lgp/search/migration.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 #include <numeric>
 
@@ -37,6 +38,31 @@ std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, I
   for (int p = 0; p < n; ++p)
     to[order[p]] = static_cast<int>(static_cast<int64_t>(p) * islands / n);
   return to;
+}
+
+std::vector<int> islandSizes(int population, int islands,
+                             const std::vector<IslandProfile>& profiles) {
+  if (islands < 1) return {};
+  std::vector<double> share(islands, 1.0);
+  if (!profiles.empty())
+    for (int k = 0; k < islands; ++k)
+      share[k] = profiles[static_cast<size_t>(k) % profiles.size()].share;
+  const double sum = std::accumulate(share.begin(), share.end(), 0.0);
+  std::vector<int> size(islands);
+  std::vector<double> frac(islands);
+  int given = 0;
+  for (int k = 0; k < islands; ++k) {
+    const double exact = population * share[k] / sum;
+    size[k] = static_cast<int>(std::floor(exact));
+    frac[k] = exact - size[k];
+    given += size[k];
+  }
+  std::vector<int> order(islands);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return frac[a] > frac[b]; });
+  for (int j = 0; given < population && j < islands; ++j, ++given) ++size[order[j]];
+  for (int& s : size) s = std::max(s, 4);
+  return size;
 }
 
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile) {

@@ -414,9 +414,10 @@ void Search::setTransport(std::unique_ptr<MigrationTransport> transport) {
 }
 
 int Search::islandSize(int k) const {
-  const int n = cfg_.search.population;
   const int count = island_total_ > 0 ? island_total_ : static_cast<int>(islands_.size());
-  return n / count + (k < n % count ? 1 : 0);
+  // Recomputed per call (a few islands): no cached state to race on inside parallel loops.
+  return lgp::islandSizes(cfg_.search.population, count,
+                          cfg_.search.islands.profiles)[static_cast<size_t>(k)];
 }
 
 int Search::localPopulation() const {

@@ -74,8 +74,20 @@ struct IslandProfile {
   int max_length = 0;       // opcodes per program in this island; 0 = program.max_length
   int constants = 0;        // constant slots its programs may read; 0 = program.constants
   double weight_rate = -1;  // variation.weight_rate in this island; < 0 = the run's
+  // The island's population relative to the others' (search.population is split in proportion
+  // to the shares): a long island's generation costs more per program, so a smaller share
+  // keeps it from taking the time the small islands search the cheap end with.
+  double share = 1;
   friend bool operator==(const IslandProfile&, const IslandProfile&) = default;
 };
+
+// Programs per island when `population` is split over `islands` islands, island k in proportion
+// to its profile's share (profiles[k % size]; none: equal shares), largest remainders first and
+// ties to the lower island, so equal shares give population / islands and the remainder to the
+// first islands. An island gets at least 4 (a tournament and survival need them), so the total
+// can exceed `population` when a share is tiny.
+std::vector<int> islandSizes(int population, int islands,
+                             const std::vector<IslandProfile>& profiles);
 
 // The shape an island's variation works with: the run's, with the profile's smaller length and
 // constant count.
