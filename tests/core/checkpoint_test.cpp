@@ -25,6 +25,7 @@ RunConfig smallConfig() {
   c.search.threads = 1;
   c.search.islands.count = 2;
   c.program.max_length = 32;
+  c.program.num_constants = 8;
   return c;
 }
 

@@ -26,7 +26,10 @@ TEST(Config, DefaultsAreValid) {
   auto c = parseRunConfig(minimal(), ".");
   ASSERT_TRUE(c) << c.error();
   EXPECT_EQ(c->search.population, 400);
-  EXPECT_EQ(c->program.max_length, 32);
+  EXPECT_EQ(c->program.max_length, 96);
+  EXPECT_EQ(c->program.num_constants, 48);
+  EXPECT_EQ(c->search.islands.profiles.size(), 4u);
+  EXPECT_EQ(c->search.islands.deal, IslandDeal::ByCost);
   EXPECT_EQ(c->objectives.cost_model, CostTarget::GpuGeneric);
   // Round trip through JSON.
   auto again = parseRunConfig(toJson(*c), ".");
@@ -138,12 +141,13 @@ TEST(Config, ArchiveOrderAndIslandDeal) {
   auto d = parseRunConfig(j, ".");
   ASSERT_TRUE(d) << d.error();
   EXPECT_EQ(d->search.refine.archive_order, ArchiveRefineOrder::Oldest);
-  EXPECT_EQ(d->search.islands.deal, IslandDeal::Interleaved);
-  j["search"] = {{"refine", {{"archive_order", "accurate"}}}, {"islands", {{"deal", "by_cost"}}}};
+  EXPECT_EQ(d->search.islands.deal, IslandDeal::ByCost);
+  j["search"] = {{"refine", {{"archive_order", "accurate"}}},
+                 {"islands", {{"deal", "interleaved"}}}};
   auto c = parseRunConfig(j, ".");
   ASSERT_TRUE(c) << c.error();
   EXPECT_EQ(c->search.refine.archive_order, ArchiveRefineOrder::Accurate);
-  EXPECT_EQ(c->search.islands.deal, IslandDeal::ByCost);
+  EXPECT_EQ(c->search.islands.deal, IslandDeal::Interleaved);
   auto again = parseRunConfig(toJson(*c), ".");
   ASSERT_TRUE(again) << again.error();
   EXPECT_EQ(toJson(*again), toJson(*c));

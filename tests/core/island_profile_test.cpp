@@ -160,12 +160,14 @@ TEST_P(IslandProfiles, EveryIslandHoldsOnlyWhatFitsIt) {
 
 INSTANTIATE_TEST_SUITE_P(Topologies, IslandProfiles, ::testing::Values("ring", "by_profile"));
 
-// Profiles that change nothing give the run without profiles; real ones change the front, and
-// the same seed gives the same front.
+// Profiles that change nothing give the run without profiles ([{}]); real ones change the
+// front, and the same seed gives the same front.
 TEST(IslandProfileRuns, NeutralProfilesChangeNothingAndRunsAreDeterministic) {
   const Table t = test::gridTable(12);
-  const auto none = frontOf(*parseRunConfig(profileConfig(nullptr), "."), t);
-  EXPECT_EQ(frontOf(*parseRunConfig(profileConfig(J("[{}]")), "."), t), none);
+  const auto none = frontOf(*parseRunConfig(profileConfig(J("[{}]")), "."), t);
+  EXPECT_EQ(frontOf(*parseRunConfig(profileConfig(J("[{}, {}]")), "."), t), none);
+  EXPECT_EQ(frontOf(*parseRunConfig(profileConfig(J(R"([{"max_length": 40}])")), "."), t),
+            none);  // capped at the run's 32 opcodes
   EXPECT_EQ(
       frontOf(*parseRunConfig(profileConfig(J(R"([{"max_length": 32, "constants": 16}])")), "."),
               t),
@@ -273,9 +275,16 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
   auto again = parseRunConfig(round, ".");
   ASSERT_TRUE(again.hasValue()) << again.error();
   EXPECT_EQ(again->search.islands.profiles, ok->search.islands.profiles);
-  // Without profiles nothing is written (config digests stay as they were).
+  // The default profiles (three small islands, one long) are written, so a checkpoint's config
+  // digest says which islands it ran; the default topology is not.
+  const RunConfig defaults;
+  ASSERT_EQ(defaults.search.islands.profiles.size(), 4u);
   const nlohmann::json plain = toJson(*parseRunConfig(profileConfig(nullptr), "."));
-  EXPECT_FALSE(plain["search"]["islands"].contains("profiles"));
+  EXPECT_EQ(plain["search"]["islands"]["profiles"],
+            nlohmann::json::parse(R"([{"max_length": 32, "constants": 8, "weight_rate": 0},
+                                      {"max_length": 32, "constants": 8, "weight_rate": 0},
+                                      {"max_length": 32, "constants": 8, "weight_rate": 0}, {}])"));
+  EXPECT_EQ(plain["search"]["islands"]["deal"], "by_cost");
   EXPECT_FALSE(plain["search"]["islands"].contains("topology"));
   nlohmann::json by = profileConfig(J("[{}]"));
   by["search"]["islands"]["topology"] = "by_profile";
@@ -292,8 +301,8 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
   const std::vector<std::pair<const char*, std::string>> bad = {
       {"[]", "/search/islands/profiles"},
       {R"({"max_length": 8})", "/search/islands/profiles"},
-      {R"([{"max_length": 40}])", "/search/islands/profiles/0/max_length"},
-      {R"([{}, {"constants": 17}])", "/search/islands/profiles/1/constants"},
+      {R"([{"max_length": 256}])", "/search/islands/profiles/0/max_length"},
+      {R"([{}, {"constants": -1}])", "/search/islands/profiles/1/constants"},
       {R"([{"weight_rate": 2}])", "/search/islands/profiles/0/weight_rate"},
       {R"([{}, {"share": 0}])", "/search/islands/profiles/1/share"},
       {R"([{"length": 4}])", "/search/islands/profiles/0/length"},

@@ -241,6 +241,7 @@ TEST(Seeding, SeedsEnterTheInitialPopulation) {
   c.search.threads = 1;
   c.search.refine.archive_period = 0;
   c.program.output_mode = OutputMode::Designated;
+  c.program.max_length = 32;
   Search s(c, twoOutputs(8));
   Program too_long;
   too_long.code.push_back(Instr{Op::Add, {inputOperand(0), inputOperand(1)}});

@@ -42,7 +42,7 @@ nlohmann::json variantJson(const Variant& v) {
             {"seed", 4},
             {"threads", 2},
             {"linear_scaling", true},
-            {"variation", {{"weight_rate", v.weight_rate}}}}}};
+            {"variation", {{"weight_rate", v.weight_rate}, {"weight_min_length", 0}}}}}};
 }
 
 RunConfig variantConfig(const Variant& v) {

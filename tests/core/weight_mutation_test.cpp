@@ -135,13 +135,22 @@ nlohmann::json weightConfig(double rate) {
             {"generations", 15},
             {"seed", 5},
             {"threads", 2},
-            {"variation", {{"weight_rate", rate}}}}}};
+            {"variation", {{"weight_rate", rate}, {"weight_min_length", 0}}}}}};
 }
 
-TEST(WeightMutationSearch, ConfigDefaultIsOffAndUnwritten) {
+// The default is on (0.25, from 16 effective opcodes); 0 turns weights off and, like every
+// value, is written, so a config round-trips.
+TEST(WeightMutationSearch, ConfigDefaultIsOnAndRoundTrips) {
+  const RunConfig defaults;
+  EXPECT_EQ(defaults.search.variation.weight_rate, 0.25);
+  EXPECT_EQ(defaults.search.variation.weight_min_length, 16);
   auto off = parseRunConfig(weightConfig(0), ".");
   ASSERT_TRUE(off.hasValue()) << off.error();
-  EXPECT_FALSE(toJson(*off)["search"]["variation"].contains("weight_rate"));
+  EXPECT_EQ(toJson(*off)["search"]["variation"]["weight_rate"], 0);
+  auto again = parseRunConfig(toJson(*off), ".");
+  ASSERT_TRUE(again.hasValue()) << again.error();
+  EXPECT_EQ(again->search.variation.weight_rate, 0);
+  EXPECT_EQ(again->search.variation.weight_min_length, 0);
   auto on = parseRunConfig(weightConfig(0.25), ".");
   ASSERT_TRUE(on.hasValue()) << on.error();
   EXPECT_EQ(toJson(*on)["search"]["variation"]["weight_rate"], 0.25);
@@ -198,7 +207,7 @@ std::vector<std::string> frontFormulas(const nlohmann::json& j) {
 TEST(WeightMutationSearch, MinLengthLeavesSmallChildrenUnweighted) {
   auto with = [](double rate, int min_length) {
     nlohmann::json j = weightConfig(rate);
-    if (min_length) j["search"]["variation"]["weight_min_length"] = min_length;
+    j["search"]["variation"]["weight_min_length"] = min_length;
     return j;
   };
   const auto none = frontFormulas(with(0, 0));
@@ -210,8 +219,8 @@ TEST(WeightMutationSearch, MinLengthLeavesSmallChildrenUnweighted) {
   auto cfg = parseRunConfig(with(0.5, 6), ".");
   ASSERT_TRUE(cfg.hasValue());
   EXPECT_EQ(toJson(*cfg)["search"]["variation"]["weight_min_length"], 6);
-  EXPECT_FALSE(toJson(*parseRunConfig(with(0.5, 0), "."))["search"]["variation"].contains(
-      "weight_min_length"));
+  EXPECT_EQ(toJson(*parseRunConfig(with(0.5, 0), "."))["search"]["variation"]["weight_min_length"],
+            0);
   auto bad = parseRunConfig(with(0.5, 300), ".");
   ASSERT_FALSE(bad.hasValue());
   EXPECT_NE(bad.error().find("/search/variation/weight_min_length"), std::string::npos)

@@ -151,7 +151,7 @@ TEST_F(Mpi, OutputLayerAndWeightsMigrateReproducibly) {
   json j = base(24, "sync");
   j["program"] = {{"max_length", 16}, {"constants", 10}, {"genes", 2}};
   j["search"]["linear_scaling"] = true;
-  j["search"]["variation"] = {{"weight_rate", 0.3}};
+  j["search"]["variation"] = {{"weight_rate", 0.3}, {"weight_min_length", 0}};
   const auto fronts = twoSyncRuns(j, [](const json& f) {
     for (const auto& m : f["members"]) {
       ASSERT_EQ(m["outputs"].size(), 1u) << m.dump();
@@ -173,7 +173,7 @@ TEST_F(Mpi, IslandProfilesHoldOnEveryRank) {
     SCOPED_TRACE(topology);
     json j = base(24, "sync");
     j["search"]["islands"]["topology"] = topology;
-    j["search"]["variation"] = {{"weight_rate", 0.3}};
+    j["search"]["variation"] = {{"weight_rate", 0.3}, {"weight_min_length", 0}};
     j["search"]["islands"]["profiles"] = {
         {{"max_length", 5}, {"constants", 1}, {"weight_rate", 0}, {"share", 0.5}}, json::object()};
     const std::vector<size_t> sizes = {13, 27, 13, 27};  // 80 programs at shares 0.5, 1, 0.5, 1

@@ -352,9 +352,9 @@ SMALL_AND_LONG_ISLANDS = {"profiles": [{"max_length": 6, "constants": 2, "weight
 
 @pytest.mark.parametrize("program,variation,islands", [
     ({"genes": 3}, {}, {}),
-    ({"constants": 12}, {"weight_rate": 0.3}, {}),
-    ({"genes": 2, "constants": 12}, {"weight_rate": 0.3}, {}),
-    ({"constants": 12}, {"weight_rate": 0.3}, SMALL_AND_LONG_ISLANDS),
+    ({"constants": 12}, {"weight_rate": 0.3, "weight_min_length": 0}, {}),
+    ({"genes": 2, "constants": 12}, {"weight_rate": 0.3, "weight_min_length": 0}, {}),
+    ({"constants": 12}, {"weight_rate": 0.3, "weight_min_length": 0}, SMALL_AND_LONG_ISLANDS),
 ])
 def test_output_layer_and_weights_predict_what_was_scored(grid, program, variation, islands):
     # The search-4 representations through the module: the layer is materialised (one

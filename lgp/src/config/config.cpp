@@ -428,6 +428,7 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
       fail(o.path("profiles"),
            "must be a non-empty array of {\"max_length\", \"constants\", \"weight_rate\", "
            "\"share\"} objects (island k takes entry k mod its size)");
+    c.profiles.clear();  // the given list replaces the default one
     for (size_t i = 0; i < v.size(); ++i) {
       Obj p(v[i], jsonPath(o.path("profiles"), i));
       IslandProfile ip;
@@ -571,18 +572,8 @@ Status RunConfig::validate() const {
     return Status::error("/search/archive/" + s.message());
   if (auto s = search.islands.validate(); !s)
     return Status::error("/search/islands/" + s.message());
-  for (size_t i = 0; i < search.islands.profiles.size(); ++i) {
-    const auto& ip = search.islands.profiles[i];
-    const std::string p = jsonPath("/search/islands/profiles", i);
-    if (ip.max_length > program.max_length)
-      return Status::error(
-          jsonError(jsonPath(p, "max_length"),
-                    "must be <= program.max_length (" + std::to_string(program.max_length) + ")"));
-    if (ip.constants > program.num_constants)
-      return Status::error(jsonError(
-          jsonPath(p, "constants"),
-          "must be <= program.constants (" + std::to_string(program.num_constants) + ")"));
-  }
+  // A profile's max_length and constants above the run's are capped at the run's
+  // (islandShape): the default profiles hold for a run of shorter programs too.
   if (auto s = search.refine.nm.validate(); !s)
     return Status::error("/search/refine/" + s.message());
   if (eval.block_size < 16 || eval.block_size % 16 != 0)
@@ -857,14 +848,15 @@ nlohmann::json toJson(const RunConfig& c) {
           {"references", c.references}};
   // Written only where set, so that the digests of configs without it stay as they were.
   if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
-  if (c.search.variation.weight_rate != 0)
-    out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
-  if (c.search.variation.weight_min_length != 0)
-    out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
+  // Always written: their defaults are not 0 / empty, so leaving 0 out would not round-trip.
+  out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
+  out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
   if (c.search.islands.topology != MigrationTopology::Ring)
     out["search"]["islands"]["topology"] = std::string(toString(c.search.islands.topology));
-  if (!c.search.islands.profiles.empty()) {
+  {
+    // No profiles (possible in code) is written as [{}], which searches the same way.
     auto& a = out["search"]["islands"]["profiles"] = nlohmann::json::array();
+    if (c.search.islands.profiles.empty()) a.push_back(nlohmann::json::object());
     for (const auto& ip : c.search.islands.profiles) {
       nlohmann::json e = nlohmann::json::object();
       if (ip.max_length != 0) e["max_length"] = ip.max_length;

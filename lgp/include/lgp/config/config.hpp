@@ -47,8 +47,10 @@ struct DataConfig {
 };
 
 struct ProgramConfig {
-  int max_length = 32;                        // opcodes per program (1..255)
-  int num_constants = 8;                      // constant slots per program (0..255)
+  // Room for the accurate end (30-64 GPU instructions, ~30 fitted coefficients); the default
+  // island profiles keep most islands at 32 opcodes and 8 slots for the cheap end.
+  int max_length = 96;                        // opcodes per program (1..255)
+  int num_constants = 48;                     // constant slots per program (0..255)
   OutputMode output_mode = OutputMode::Last;  // last k opcodes, or designated slots
   std::vector<Op> ops;                        // allowed operators; empty = kDefaultOps
   int init_min_length = 2;                    // random initial programs: length range
@@ -101,10 +103,10 @@ struct VariationConfig {
   double wrap_share = 0.5;      // chance an inserted opcode wraps the operand it replaces
   // Chance an offspring gets a weight (weightMutate: x becomes mul(c, x) with c = 1, a
   // coefficient of its own); such offspring are always refined, so constant fitting moves it.
-  double weight_rate = 0;
+  double weight_rate = 0.25;
   // Offspring with fewer effective opcodes than this get no weight: the cheap end searches as
   // without weights, and the coefficients go to the programs large enough to use them.
-  int weight_min_length = 0;
+  int weight_min_length = 16;
 };
 
 enum class RefineMethod : uint8_t {
@@ -163,9 +165,12 @@ struct IslandConfig {
                                 // restarts from random programs and archive members; 0 = never
   // How the members of each archive refinement rejoin the islands (one island each):
   // "interleaved" (in turn) or "by_cost" (consecutive cost slices, see IslandDeal).
-  IslandDeal deal = IslandDeal::Interleaved;
-  // Island k has profiles[k % size]; empty = every island searches the run's program shape.
-  std::vector<IslandProfile> profiles;
+  IslandDeal deal = IslandDeal::ByCost;
+  // Island k has profiles[k % size] (a profile's length and slots are capped at the run's);
+  // [{}] = every island searches the run's program shape. The default: islands 0-2 search the
+  // cheap end (32 opcodes, 8 slots, no weights) and island 3 grows long programs with weights,
+  // measured on the DFG, zh and normalization tables (docs/accurate-end.md).
+  std::vector<IslandProfile> profiles = {{32, 8, 0}, {32, 8, 0}, {32, 8, 0}, {}};
   // Who sends migrants to whom: "ring" (the next island) or "by_profile" (the next island of
   // the same profile).
   MigrationTopology topology = MigrationTopology::Ring;
