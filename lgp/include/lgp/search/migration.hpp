@@ -75,8 +75,9 @@ struct IslandProfile {
   int constants = 0;        // constant slots its programs may read; 0 = program.constants
   double weight_rate = -1;  // variation.weight_rate in this island; < 0 = the run's
   // The island's population relative to the others' (search.population is split in proportion
-  // to the shares): a long island's generation costs more per program, so a smaller share
-  // keeps it from taking the time the small islands search the cheap end with.
+  // to the shares), and so its part of each generation's time. Measured: a long island at 0.5
+  // beside small ones lost most of the accurate end and gave the cheap end nothing
+  // (docs/accurate-end.md), hence 1 in the default layout.
   double share = 1;
   friend bool operator==(const IslandProfile&, const IslandProfile&) = default;
 };
