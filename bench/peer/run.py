@@ -732,6 +732,7 @@ def run_one(args, run, seed, data_dir, data):
                                             for k, v in j["env"].items()),
                                     shlex.join(j["argv"])) for j in jobs]
     engines_json = os.path.join(d, "engines.json")
+    op_saved = None  # Operon's run from an earlier results.json, read once per run
     if args.reuse and os.path.exists(engines_json):
         print("[%s seed %d] reusing the fronts of %s" % (run["name"], seed, d), flush=True)
         with open(engines_json) as f:
@@ -756,7 +757,7 @@ def run_one(args, run, seed, data_dir, data):
                     sys.exit("error: --operon-from: %s" % e)
             else:  # a committed output keeps only results.json: Operon's scored front is there
                 src = os.path.join(args.operon_from, "results.json")
-                earlier = saved_operon_run(src, run["name"], seed)
+                earlier = op_saved = saved_operon_run(src, run["name"], seed)
                 saved["operon_results"] = src
             jobs_run = jobs[:1]
             commands = commands[:1] + ["# Operon: %s" % c for c in earlier["commands"][1:]]
@@ -784,9 +785,10 @@ def run_one(args, run, seed, data_dir, data):
     lgp_members, lgp_prog = score_lgp(args, os.path.join(d, "lgp-front.json"), inputs,
                                       data_dir, d, score_cmds)
     if saved.get("operon_results"):  # measured and scored when that output was written
-        earlier = saved_operon_run(saved["operon_results"], run["name"], seed)
-        op_members, dropped = earlier["operon"]["members"], earlier["operon"]["dropped_not_finite"]
-        op_log = {k: earlier["operon"][k] for k in ("generations", "evaluations", "search_s")}
+        op_saved = op_saved or saved_operon_run(saved["operon_results"], run["name"], seed)
+        op = op_saved["operon"]
+        op_members, dropped = op["members"], op["dropped_not_finite"]
+        op_log = {k: op[k] for k in ("generations", "evaluations", "search_s")}
     else:
         op_members, dropped = read_operon_front(os.path.join(d, "operon-front.csv"),
                                                 data["var_train"], data["var_heldout"])
@@ -1156,7 +1158,7 @@ def main():
     print(write_outputs(out, meta, data_info, [done[j] for j in sorted(done)], shorten))
 
 
-def same_rows(earlier, d, info=None, saved_info=None):
+def same_rows(earlier, d, info, saved_info):
     """Operon's figures are comparable only on the same training and held-out rows: the files
     when the earlier output still has them, else the description its results.json keeps."""
     if not os.path.exists(os.path.join(earlier, "train.csv")):
