@@ -180,6 +180,37 @@ TEST(IslandProfileRuns, NeutralProfilesChangeNothingAndRunsAreDeterministic) {
   EXPECT_NE(a, none);
 }
 
+// A profile's error_bias and cost_strata act in its island only: set on every island they
+// are the run's own setting, set on one island they change the run, and a missing one is the
+// run's.
+TEST(IslandProfileRuns, SelectionSettingsActPerIsland) {
+  const Table t = test::gridTable(12);
+  auto withRun = [](const char* profiles, double bias, int strata) {
+    nlohmann::json j = profileConfig(J(profiles));
+    j["search"]["error_bias"] = bias;
+    j["search"]["cost_strata"] = strata;
+    auto c = parseRunConfig(j, ".");
+    EXPECT_TRUE(c.hasValue()) << c.error();
+    return *c;
+  };
+  const auto biased = frontOf(withRun("[{}]", 0.5, 0), t);
+  EXPECT_EQ(frontOf(withRun(R"([{"error_bias": 0.5}])", 0, 0), t), biased);
+  EXPECT_EQ(frontOf(withRun(R"([{"error_bias": 0.5}, {}])", 0.5, 0), t), biased);
+  const auto strata = frontOf(withRun("[{}]", 0, 6), t);
+  EXPECT_EQ(frontOf(withRun(R"([{"cost_strata": 6}])", 0, 0), t), strata);
+  EXPECT_EQ(frontOf(withRun(R"([{}, {"cost_strata": 6}])", 0, 6), t), strata);
+  const auto plain = frontOf(withRun("[{}]", 0, 0), t);
+  EXPECT_NE(biased, plain);
+  EXPECT_NE(strata, plain);
+  // On one island of four: neither the plain run nor the run-wide setting.
+  const auto one =
+      frontOf(withRun(R"([{}, {}, {}, {"error_bias": 0.9, "cost_strata": 6}])", 0, 0), t);
+  EXPECT_NE(one, plain);
+  EXPECT_NE(one, frontOf(withRun("[{}]", 0.9, 6), t));
+  EXPECT_EQ(frontOf(withRun(R"([{}, {}, {}, {"error_bias": 0.9, "cost_strata": 6}])", 0, 0), t),
+            one);
+}
+
 TEST(MigrationTopology, ByProfileIsARingPerProfile) {
   const IslandProfile small{8, 2, 0}, large{};
   EXPECT_EQ(migrationTargets(4, {}, MigrationTopology::ByProfile), (std::vector<int>{1, 2, 3, 0}));
@@ -260,7 +291,9 @@ TEST(IslandSizes, SharedRunsHoldTheirSizesAndResume) {
 
 TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
   auto ok = parseRunConfig(
-      profileConfig(J(R"([{"max_length": 8, "weight_rate": 0}, {"share": 0.5}])")), ".");
+      profileConfig(J(
+          R"([{"max_length": 8, "weight_rate": 0}, {"share": 0.5, "error_bias": 0.25, "cost_strata": 4}])")),
+      ".");
   ASSERT_TRUE(ok.hasValue()) << ok.error();
   ASSERT_EQ(ok->search.islands.profiles.size(), 2u);
   EXPECT_EQ(ok->search.islands.profiles[0].max_length, 8);
@@ -269,9 +302,14 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
   EXPECT_LT(ok->search.islands.profiles[1].weight_rate, 0);
   EXPECT_EQ(ok->search.islands.profiles[0].share, 1);
   EXPECT_EQ(ok->search.islands.profiles[1].share, 0.5);
+  EXPECT_LT(ok->search.islands.profiles[0].error_bias, 0);
+  EXPECT_LT(ok->search.islands.profiles[0].cost_strata, 0);
+  EXPECT_EQ(ok->search.islands.profiles[1].error_bias, 0.25);
+  EXPECT_EQ(ok->search.islands.profiles[1].cost_strata, 4);
   const nlohmann::json round = toJson(*ok);
   EXPECT_EQ(round["search"]["islands"]["profiles"],
-            nlohmann::json::parse(R"([{"max_length": 8, "weight_rate": 0}, {"share": 0.5}])"));
+            nlohmann::json::parse(R"([{"max_length": 8, "weight_rate": 0},
+                                      {"share": 0.5, "error_bias": 0.25, "cost_strata": 4}])"));
   auto again = parseRunConfig(round, ".");
   ASSERT_TRUE(again.hasValue()) << again.error();
   EXPECT_EQ(again->search.islands.profiles, ok->search.islands.profiles);
@@ -305,6 +343,8 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
       {R"([{}, {"constants": -1}])", "/search/islands/profiles/1/constants"},
       {R"([{"weight_rate": 2}])", "/search/islands/profiles/0/weight_rate"},
       {R"([{}, {"share": 0}])", "/search/islands/profiles/1/share"},
+      {R"([{"error_bias": 1.5}])", "/search/islands/profiles/0/error_bias"},
+      {R"([{}, {"cost_strata": -1}])", "/search/islands/profiles/1/cost_strata"},
       {R"([{"length": 4}])", "/search/islands/profiles/0/length"},
       {"[3]", "/search/islands/profiles/0"},
   };

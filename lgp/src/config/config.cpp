@@ -427,7 +427,8 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
     if (!v.is_array() || v.empty())
       fail(o.path("profiles"),
            "must be a non-empty array of {\"max_length\", \"constants\", \"weight_rate\", "
-           "\"share\"} objects (island k takes entry k mod its size)");
+           "\"share\", \"error_bias\", \"cost_strata\"} objects (island k takes entry k mod its "
+           "size)");
     c.profiles.clear();  // the given list replaces the default one
     for (size_t i = 0; i < v.size(); ++i) {
       Obj p(v[i], jsonPath(o.path("profiles"), i));
@@ -436,6 +437,8 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
       p.integer("constants", ip.constants, 0, 255);
       p.number("weight_rate", ip.weight_rate, 0, 1);
       p.number("share", ip.share, 0.01, 100);
+      p.number("error_bias", ip.error_bias, 0, 1);
+      p.integer("cost_strata", ip.cost_strata, 0, 1024);
       p.finish();
       c.profiles.push_back(ip);
     }
@@ -863,6 +866,8 @@ nlohmann::json toJson(const RunConfig& c) {
       if (ip.constants != 0) e["constants"] = ip.constants;
       if (ip.weight_rate >= 0) e["weight_rate"] = ip.weight_rate;
       if (ip.share != 1) e["share"] = ip.share;
+      if (ip.error_bias >= 0) e["error_bias"] = ip.error_bias;
+      if (ip.cost_strata >= 0) e["cost_strata"] = ip.cost_strata;
       a.push_back(std::move(e));
     }
   }

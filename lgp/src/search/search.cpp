@@ -339,7 +339,7 @@ void Search::rankIsland(Island& isl) {
   }
 }
 
-void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) const {
+void Search::survive(int global, Island& isl, std::vector<Individual>& pool, int keep) const {
   isl.pop = std::move(pool);
   rankIsland(isl);
   const int n = static_cast<int>(isl.pop.size());
@@ -353,7 +353,7 @@ void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) const
   std::vector<Objectives> objs;
   objs.reserve(n);
   for (const auto& ind : isl.pop) objs.push_back(ind.obj);
-  const std::vector<int> chosen = stratifiedSurvivors(objs, order, keep, cfg_.search.cost_strata);
+  const std::vector<int> chosen = stratifiedSurvivors(objs, order, keep, islandCostStrata(global));
   // Survivors keep the rank and crowding of the pool's ranking, as in NSGA-II (Deb et al.
   // 2002): tournaments compare them directly, so no second sort is needed.
   std::vector<Individual> next;
@@ -372,10 +372,10 @@ void Search::survive(Island& isl, std::vector<Individual>& pool, int keep) const
   isl.crowd = std::move(crowd);
 }
 
-int Search::tournament(const Island& isl, Rng& rng) const {
+int Search::tournament(int global, const Island& isl, Rng& rng) const {
   const auto& pop = isl.pop;
   const int n = static_cast<int>(pop.size());
-  const bool by_error = rng.chance(cfg_.search.error_bias);
+  const bool by_error = rng.chance(islandErrorBias(global));
   int best = static_cast<int>(rng.below(n));
   for (int t = 1; t < cfg_.search.tournament_size; ++t) {
     const int c = static_cast<int>(rng.below(n));
@@ -431,11 +431,24 @@ const ProgramShape& Search::islandShape(int k) const {
   return profile_shapes_[static_cast<size_t>(k) % profile_shapes_.size()];
 }
 
-double Search::islandWeightRate(int k) const {
+const IslandProfile* Search::islandProfile(int k) const {
   const auto& profiles = cfg_.search.islands.profiles;
-  if (profiles.empty()) return cfg_.search.variation.weight_rate;
-  const double r = profiles[static_cast<size_t>(k) % profiles.size()].weight_rate;
-  return r >= 0 ? r : cfg_.search.variation.weight_rate;
+  return profiles.empty() ? nullptr : &profiles[static_cast<size_t>(k) % profiles.size()];
+}
+
+double Search::islandWeightRate(int k) const {
+  const IslandProfile* p = islandProfile(k);
+  return p && p->weight_rate >= 0 ? p->weight_rate : cfg_.search.variation.weight_rate;
+}
+
+double Search::islandErrorBias(int k) const {
+  const IslandProfile* p = islandProfile(k);
+  return p && p->error_bias >= 0 ? p->error_bias : cfg_.search.error_bias;
+}
+
+int Search::islandCostStrata(int k) const {
+  const IslandProfile* p = islandProfile(k);
+  return p && p->cost_strata >= 0 ? p->cost_strata : cfg_.search.cost_strata;
 }
 
 int Search::offspringBase() const {
@@ -493,7 +506,7 @@ void Search::migrate(int generation) {
     for (auto& m : arrived[k])
       if (fitToIsland(m.program, shape_, view))  // what does not fit stays away
         pool.push_back({std::move(m.program), m.obj, false});
-    survive(isl, pool, islandSize(island_first_ + k));
+    survive(island_first_ + k, isl, pool, islandSize(island_first_ + k));
   }
 }
 
@@ -548,7 +561,7 @@ void Search::initialize() {
     const int size = islandSize(island_first_ + k);
     std::vector<Individual> pool(std::make_move_iterator(inds.begin() + first),
                                  std::make_move_iterator(inds.begin() + first + size));
-    survive(islands_[k], pool, size);
+    survive(island_first_ + k, islands_[k], pool, size);
     for (const auto& ind : islands_[k].pop)
       islands_[k].best = std::min(islands_[k].best, ind.obj.error);
     first += size;
@@ -601,10 +614,10 @@ void Search::step(bool check_budget) {
       }
       continue;
     }
-    const int a = tournament(isl, rng);
+    const int a = tournament(island_first_ + owner[i], isl, rng);
     Program child;
     if (rng.chance(var.crossover_rate)) {
-      const int b = tournament(isl, rng);
+      const int b = tournament(island_first_ + owner[i], isl, rng);
       child = crossover(isl.pop[a].program, isl.pop[b].program, view, rng);
     } else {
       child = isl.pop[a].program;
@@ -649,7 +662,7 @@ void Search::step(bool check_budget) {
     if (!restart[k]) pool = std::move(isl.pop);
     pool.insert(pool.end(), std::make_move_iterator(off.begin() + first[k]),
                 std::make_move_iterator(off.begin() + first[k + 1]));
-    survive(isl, pool, first[k + 1] - first[k]);
+    survive(island_first_ + k, isl, pool, first[k + 1] - first[k]);
     double best = kInf;
     for (const auto& ind : isl.pop) best = std::min(best, ind.obj.error);
     if (restart[k]) {
@@ -704,7 +717,8 @@ void Search::refineArchive() {
     if (fitToIsland(inds[j].program, shape_, islandShape(island_first_ + to[j])))
       pools[to[j]].push_back(std::move(inds[j]));
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
-  for (int k = 0; k < count; ++k) survive(islands_[k], pools[k], islandSize(island_first_ + k));
+  for (int k = 0; k < count; ++k)
+    survive(island_first_ + k, islands_[k], pools[k], islandSize(island_first_ + k));
 }
 
 void Search::adopt(const std::vector<Program>& programs, int generations, uint64_t evaluations,

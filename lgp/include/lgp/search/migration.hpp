@@ -79,6 +79,10 @@ struct IslandProfile {
   // beside small ones lost most of the accurate end and gave the cheap end nothing
   // (docs/accurate-end.md), hence 1 in the default layout.
   double share = 1;
+  // search.error_bias and search.cost_strata in this island; < 0 = the run's. Lets a long
+  // island select for accuracy without steering the small ones.
+  double error_bias = -1;
+  int cost_strata = -1;
   friend bool operator==(const IslandProfile&, const IslandProfile&) = default;
 };
 

@@ -238,13 +238,18 @@ class Search {
                  const ProgramKey* key = nullptr, const SemanticCache::Entry* known = nullptr);
   // Replaces the island's population by the best `keep` of pool (NSGA-II elitism, with
   // search.cost_strata the best of each cost slice first).
-  void survive(Island& isl, std::vector<Individual>& pool, int keep) const;
+  // `global`: the island's global index (its profile's cost_strata).
+  void survive(int global, Island& isl, std::vector<Individual>& pool, int keep) const;
   static void rankIsland(Island& isl);
-  int tournament(const Island& isl, Rng& rng) const;
+  int tournament(int global, const Island& isl, Rng& rng) const;
   int islandSize(int k) const;  // population share of global island k
-  // What global island k's variation may build (search.islands.profiles), and its weight rate.
+  // What global island k's variation may build (search.islands.profiles), and its weight
+  // rate, error bias and cost strata.
   const ProgramShape& islandShape(int k) const;
+  const IslandProfile* islandProfile(int k) const;  // nullptr: no profiles
   double islandWeightRate(int k) const;
+  double islandErrorBias(int k) const;
+  int islandCostStrata(int k) const;
   int localPopulation() const;  // offspring per generation of this search's islands
   int offspringBase() const;    // global index of this search's first offspring
   void migrate(int generation);
