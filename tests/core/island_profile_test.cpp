@@ -321,7 +321,8 @@ TEST(IslandProfileConfig, ConfigNamesTheFieldAndRoundTrips) {
   EXPECT_EQ(plain["search"]["islands"]["profiles"],
             nlohmann::json::parse(R"([{"max_length": 32, "constants": 8, "weight_rate": 0},
                                       {"max_length": 32, "constants": 8, "weight_rate": 0},
-                                      {"max_length": 32, "constants": 8, "weight_rate": 0}, {}])"));
+                                      {"max_length": 32, "constants": 8, "weight_rate": 0},
+                                      {"cost_strata": 8}])"));
   EXPECT_EQ(plain["search"]["islands"]["deal"], "by_cost");
   EXPECT_FALSE(plain["search"]["islands"].contains("topology"));
   nlohmann::json by = profileConfig(J("[{}]"));

@@ -169,8 +169,11 @@ struct IslandConfig {
   // Island k has profiles[k % size] (a profile's length and slots are capped at the run's);
   // [{}] = every island searches the run's program shape. The default: islands 0-2 search the
   // cheap end (32 opcodes, 8 slots, no weights) and island 3 grows long programs with weights,
-  // measured on the DFG, zh and normalization tables (docs/accurate-end.md).
-  std::vector<IslandProfile> profiles = {{32, 8, 0}, {32, 8, 0}, {32, 8, 0}, {}};
+  // its survival stratified by cost (8 slices) so that long members outlive cheaper ones of
+  // about the same error; measured on every peer table and the recovery suite
+  // (docs/accurate-end.md).
+  std::vector<IslandProfile> profiles = {
+      {32, 8, 0}, {32, 8, 0}, {32, 8, 0}, {.cost_strata = 8}};
   // Who sends migrants to whom: "ring" (the next island) or "by_profile" (the next island of
   // the same profile).
   MigrationTopology topology = MigrationTopology::Ring;
