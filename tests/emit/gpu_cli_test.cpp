@@ -77,6 +77,27 @@ TEST_F(GpuCli, RunFrontScoreAndEmitShowMeasuredCost) {
   EXPECT_NE(r.out.find("// Measured (ACO instructions"), std::string::npos) << r.out;
   r = sh(lgp() + " emit " + (dir / "front.json").string() + " --lang glsl --no-measure");
   EXPECT_EQ(r.out.find("// Measured"), std::string::npos) << r.out;
+
+  // Code printed without its helpers is measured with them: the same measured line.
+  bool checked = false;
+  for (size_t i = 0; i < front["members"].size() && !checked; ++i) {
+    const std::string emit = lgp() + " emit " + (dir / "front.json").string() + " -m " +
+                             std::to_string(i) + " --lang hlsl";
+    const auto full = sh(emit);
+    ASSERT_EQ(full.code, 0) << full.out;
+    if (full.out.find("lgp protected-operator helpers") == std::string::npos) continue;
+    const auto bare = sh(emit + " --no-helpers");
+    ASSERT_EQ(bare.code, 0) << bare.out;
+    EXPECT_EQ(bare.out.find("lgp protected-operator helpers"), std::string::npos) << bare.out;
+    const auto measured = [](const std::string& s) {
+      const size_t a = s.find("// Measured");
+      return a == std::string::npos ? std::string() : s.substr(a, s.find('\n', a) - a);
+    };
+    EXPECT_NE(measured(full.out).find("// Measured (ACO instructions"), std::string::npos);
+    EXPECT_EQ(measured(bare.out), measured(full.out)) << bare.out;
+    checked = true;
+  }
+  EXPECT_TRUE(checked) << "no member of the front calls a protected helper";
 }
 
 TEST_F(GpuCli, EmitVerifyVulkanRunsTheMember) {
