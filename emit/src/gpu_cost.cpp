@@ -142,18 +142,17 @@ Expected<Emitted> emitMeasured(const EmitInput& in, Language lang, EmitOptions o
   if (!e || lang == Language::Cpp || !opts.header) return e;
   // Code printed without its helpers (defined elsewhere) is measured with them: the shader
   // compiler needs their definitions, and the user's build has them.
-  Expected<Emitted> with_helpers = e;
   if (!opts.helpers) {
     EmitOptions h = opts;
     h.helpers = true;
-    with_helpers = emitProgram(in, lang, h);
-    if (!with_helpers) return with_helpers;
+    e = emitProgram(in, lang, h);
+    if (!e) return e;
   }
   std::string line =
       "Measured (ACO instructions / latency / VGPRs of this code over an I/O-only shader):";
   for (int f = 0; f < kNumGpuFamilies; ++f) {
     const auto fam = static_cast<GpuFamily>(f);
-    auto m = measureEmitted(*with_helpers, lang, opts.precision, fam);
+    auto m = measureEmitted(*e, lang, opts.precision, fam);
     if (!m) {
       line = "Measured: not available (" + m.error() + ")";
       break;
