@@ -22,9 +22,7 @@
 // 16-bit arithmetic (GLSL float16_t) is enabled where the device exposes shaderFloat16.
 #include <vulkan/vulkan.h>
 
-#include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
-#include <glslang/SPIRV/GlslangToSpv.h>
 
 #include <cstdio>
 #include <cstring>
@@ -35,6 +33,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+
+#include "spirv_compile.hpp"
 
 namespace {
 
@@ -49,31 +49,13 @@ void check(VkResult r, const char* what) {
     throw Failure(std::string(what) + " failed (VkResult " + std::to_string(r) + ")");
 }
 
-// GLSL or HLSL (glslang's HLSL front end) to SPIR-V 1.3 for Vulkan 1.1.
+// Shader text to SPIR-V (spirv_compile.hpp); its errors reach the caller as failures.
 std::vector<uint32_t> compile(const std::string& lang, const std::string& source) {
-  const bool hlsl = lang == "hlsl";
-  if (!hlsl && lang != "glsl") throw Failure("lang: expected glsl or hlsl, got '" + lang + "'");
-  glslang::TShader shader(EShLangCompute);
-  const char* text = source.c_str();
-  shader.setStrings(&text, 1);
-  shader.setEnvInput(hlsl ? glslang::EShSourceHlsl : glslang::EShSourceGlsl, EShLangCompute,
-                     glslang::EShClientVulkan, 100);
-  shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_1);
-  shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_3);
-  shader.setEntryPoint("main");
-  shader.setSourceEntryPoint("main");
-  auto msgs = static_cast<EShMessages>(EShMsgSpvRules | EShMsgVulkanRules |
-                                       (hlsl ? EShMsgReadHlsl : EShMsgDefault));
-  if (!shader.parse(GetDefaultResources(), hlsl ? 500 : 450, false, msgs))
-    throw Failure(std::string("shader compile: ") + shader.getInfoLog());
-  glslang::TProgram program;
-  program.addShader(&shader);
-  if (!program.link(msgs)) throw Failure(std::string("shader link: ") + program.getInfoLog());
-  std::vector<uint32_t> spirv;
-  glslang::SpvOptions opt;
-  opt.disableOptimizer = true;  // the driver optimises; what it gets is what users ship
-  glslang::GlslangToSpv(*program.getIntermediate(EShLangCompute), spirv, &opt);
-  return spirv;
+  try {
+    return lgp::spirv::compileCompute(lang, source);
+  } catch (const lgp::spirv::CompileError& e) {
+    throw Failure(e.what());
+  }
 }
 
 class Device {
