@@ -1,0 +1,334 @@
+// lgp_gpu_time: every member of a front (and its scored references), as `lgp emit` exports it,
+// timed on a real GPU through Vulkan, next to the instruction count measured for it on AMD ISA
+// (the front's cost_measured) and the cost models' figures. It answers whether the unit the
+// fronts are judged in (RDNA2 instructions from ACO) ranks formulas as another vendor's GPU
+// times them. See README.md for the protocol.
+//
+// lgp_gpu_time --front F.json [--front G.json ..] --out DIR [--lang hlsl|glsl] [--invocations N]
+// [--iters N]
+//              [--rounds N] [--warmup N] [--device NAME] [--allow-cpu] [--no-references]
+#include <glslang/Public/ShaderLang.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include <cxxopts.hpp>
+#include <nlohmann/json.hpp>
+
+#include "../bench_util.hpp"
+#include "lgp/emit/emit.hpp"
+#include "spirv_compile.hpp"
+#include "timing_kernel.hpp"
+#include "vk_timer.hpp"
+
+namespace {
+
+using nlohmann::json;
+using namespace lgp;
+
+[[noreturn]] void die(const std::string& msg) {
+  std::fprintf(stderr, "lgp_gpu_time: %s\n", msg.c_str());
+  std::exit(1);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// One formula to time: a member or a reference of the front.
+struct Entry {
+  std::string label;  // "m12" or the reference's name
+  bool reference = false;
+  double error = std::nan("");
+  double cost = std::nan(""), nvidia = std::nan(""), rdna2 = std::nan("");
+  size_t formula_kernel = 0, baseline_kernel = 0;
+};
+
+double numberAt(const json& j, const json::json_pointer& p) {
+  return j.contains(p) && j.at(p).is_number() ? j.at(p).get<double>() : std::nan("");
+}
+
+std::vector<double> ranks(const std::vector<double>& v) {
+  std::vector<size_t> idx(v.size());
+  std::iota(idx.begin(), idx.end(), 0);
+  std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return v[a] < v[b]; });
+  std::vector<double> r(v.size());
+  for (size_t i = 0; i < idx.size();) {
+    size_t j = i;
+    while (j + 1 < idx.size() && v[idx[j + 1]] == v[idx[i]]) ++j;
+    for (size_t k = i; k <= j; ++k) r[idx[k]] = 0.5 * double(i + j);  // ties: mean rank
+    i = j + 1;
+  }
+  return r;
+}
+
+double pearson(const std::vector<double>& x, const std::vector<double>& y) {
+  const size_t n = x.size();
+  if (n < 3) return std::nan("");
+  const double mx = std::accumulate(x.begin(), x.end(), 0.0) / double(n);
+  const double my = std::accumulate(y.begin(), y.end(), 0.0) / double(n);
+  double sxy = 0, sxx = 0, syy = 0;
+  for (size_t i = 0; i < n; ++i) {
+    sxy += (x[i] - mx) * (y[i] - my);
+    sxx += (x[i] - mx) * (x[i] - mx);
+    syy += (y[i] - my) * (y[i] - my);
+  }
+  return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : std::nan("");
+}
+
+std::string fmt(double v, const char* f = "%.3g") {
+  if (!std::isfinite(v)) return "-";
+  char b[48];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cxxopts::Options opts("lgp_gpu_time", "Times a front's emitted formulas on a Vulkan GPU");
+  opts.add_options()("front", "front JSON (lgp-front/1); repeat for several",
+                     cxxopts::value<std::vector<std::string>>())(
+      "out", "folder for results.json and report.md", cxxopts::value<std::string>())(
+      "lang", "hlsl (as the measured cost compiles it) or glsl",
+      cxxopts::value<std::string>()->default_value("hlsl"))(
+      "invocations", "threads per dispatch (a multiple of 128)",
+      cxxopts::value<uint32_t>()->default_value("1048576"))(
+      "iters", "evaluations per thread", cxxopts::value<uint32_t>()->default_value("1024"))(
+      "rounds", "timed dispatches per kernel", cxxopts::value<int>()->default_value("11"))(
+      "warmup", "untimed rounds first", cxxopts::value<int>()->default_value("2"))(
+      "device", "substring of the Vulkan device's name (default: the first GPU)",
+      cxxopts::value<std::string>()->default_value(""))(
+      "allow-cpu", "accept a CPU Vulkan device (lavapipe: runs, timings mean nothing)")(
+      "no-references", "time the members only")("h,help", "this help");
+  cxxopts::ParseResult args;
+  try {
+    args = opts.parse(argc, argv);
+  } catch (const std::exception& e) {
+    die(e.what());
+  }
+  if (args.count("help")) {
+    std::printf("%s\n", opts.help().c_str());
+    return 0;
+  }
+  if (!args.count("front")) die("--front: required");
+  if (!args.count("out")) die("--out: required");
+  const auto front_paths = args["front"].as<std::vector<std::string>>();
+  const auto lang = emit::languageFromString(args["lang"].as<std::string>());
+  if (!lang || *lang == emit::Language::Cpp) die("--lang: expected hlsl or glsl");
+  const uint32_t invocations = args["invocations"].as<uint32_t>();
+  const uint32_t iters = args["iters"].as<uint32_t>();
+  const int rounds = args["rounds"].as<int>(), warmup = args["warmup"].as<int>();
+  if (invocations == 0 || invocations % bench::kTimingWorkgroup)
+    die("--invocations: must be a positive multiple of 128");
+  if (iters == 0) die("--iters: must be positive");
+  if (rounds < 1 || warmup < 0) die("--rounds: must be >= 1, --warmup >= 0");
+
+  // Emit and compile every formula and its I/O-only twin; identical kernels (most twins) are
+  // compiled and timed once.
+  glslang::InitializeProcess();
+  std::vector<std::vector<Entry>> entries(front_paths.size());
+  std::vector<std::vector<uint32_t>> kernels;
+  std::map<std::string, size_t> kernel_of;
+  for (size_t fi = 0; fi < front_paths.size(); ++fi) {
+    const std::string& front_path = front_paths[fi];
+    std::ifstream in(front_path);
+    if (!in) die("--front: cannot read " + front_path);
+    const json front = json::parse(in, nullptr, false);
+    if (front.is_discarded() || !front.contains("members") || !front["members"].is_array())
+      die("--front: " + front_path + " is not a front JSON (no members array)");
+    auto add = [&](const json& e, const std::string& path, Entry entry) {
+      const std::string where = front_path + path;
+      auto input = emit::emitInputFromFrontEntry(front, e, path);
+      if (!input) die(where + ": " + input.error());
+      emit::EmitOptions eo;
+      eo.fast = true;  // as the measured cost compiles it (emit/gpu_cost.hpp)
+      eo.header = false;
+      auto emitted = emit::emitProgram(*input, *lang, eo);
+      if (!emitted) die(where + ": " + emitted.error());
+      size_t index[2] = {0, 0};
+      int slot = 0;
+      for (auto body : {emit::KernelBody::Formula, emit::KernelBody::IoBaseline}) {
+        auto src = bench::timingKernel(*emitted, *lang, input->domain, body);
+        if (!src) die(where + ": " + src.error());
+        auto [it, fresh] = kernel_of.emplace(*src, kernels.size());
+        if (fresh) {
+          try {
+            kernels.push_back(spirv::compileCompute(std::string(emit::toString(*lang)), *src));
+          } catch (const spirv::CompileError& err) {
+            die(where + ": " + err.what() + "\n" + *src);
+          }
+        }
+        index[slot++] = it->second;
+      }
+      entry.formula_kernel = index[0];
+      entry.baseline_kernel = index[1];
+      entry.error = numberAt(e, json::json_pointer("/error"));
+      entry.cost = numberAt(e, json::json_pointer("/cost"));
+      entry.nvidia = numberAt(e, json::json_pointer("/cost_by_target/nvidia"));
+      entry.rdna2 = numberAt(e, json::json_pointer("/cost_measured/rdna2/instructions"));
+      entries[fi].push_back(entry);
+    };
+    for (size_t i = 0; i < front["members"].size(); ++i)
+      add(front["members"][i], "/members/" + std::to_string(i), {"m" + std::to_string(i)});
+    if (!args.count("no-references") && front.contains("references"))
+      for (size_t i = 0; i < front["references"].size(); ++i) {
+        const json& r = front["references"][i];
+        Entry e{r.value("name", "reference " + std::to_string(i))};
+        e.reference = true;
+        add(r, "/references/" + std::to_string(i), e);
+      }
+  }
+  glslang::FinalizeProcess();
+
+  bench::TimerOptions to;
+  to.device = args["device"].as<std::string>();
+  to.allow_cpu = args.count("allow-cpu") > 0;
+  auto timer = bench::VkTimer::open(to);
+  if (!timer) die(timer.error());
+  const bench::DeviceInfo& dev = (*timer)->info();
+  std::printf("lgp_gpu_time: %s (%s), %s; host CPU %s\n", dev.name.c_str(), dev.type.c_str(),
+              dev.driver.c_str(), bench::cpuModel().c_str());
+  size_t formulas = 0;
+  for (const auto& e : entries) formulas += e.size();
+  std::printf(
+      "lgp_gpu_time: %zu formulas, %zu kernels, %u x %u evaluations per dispatch, "
+      "%d rounds (+%d warm-up)\n",
+      formulas, kernels.size(), invocations, iters, rounds, warmup);
+  std::fflush(stdout);
+  auto run = (*timer)->time(kernels, invocations, iters, rounds, warmup);
+  if (!run) die(run.error());
+
+  // Per formula: the median over rounds of (formula - its baseline), each pair timed in the
+  // same round, in picoseconds per evaluation.
+  const double evals = double(invocations) * double(iters);
+  struct Series {
+    std::vector<double> rdna2, nvidia, cost, ps;
+  };
+  auto correlation = [](const Series& v) {
+    double sxy = 0, sxx = 0;  // least squares through the origin: ps per RDNA2 instruction
+    for (size_t i = 0; i < v.ps.size(); ++i) {
+      sxy += v.rdna2[i] * v.ps[i];
+      sxx += v.rdna2[i] * v.rdna2[i];
+    }
+    return json{{"members", v.ps.size()},
+                {"ps_per_rdna2_instruction", sxx > 0 ? sxy / sxx : std::nan("")},
+                {"pearson_rdna2", pearson(v.rdna2, v.ps)},
+                {"spearman_rdna2", pearson(ranks(v.rdna2), ranks(v.ps))},
+                {"pearson_model_nvidia", pearson(v.nvidia, v.ps)},
+                {"spearman_model_nvidia", pearson(ranks(v.nvidia), ranks(v.ps))},
+                {"pearson_model_cost", pearson(v.cost, v.ps)},
+                {"spearman_model_cost", pearson(ranks(v.cost), ranks(v.ps))}};
+  };
+  Series pooled;
+  json fronts = json::array();
+  for (size_t fi = 0; fi < front_paths.size(); ++fi) {
+    json rows = json::array();
+    Series one;
+    for (const Entry& e : entries[fi]) {
+      const auto& f = run->ns[e.formula_kernel];
+      const auto& b = run->ns[e.baseline_kernel];
+      std::vector<double> d(f.size());
+      for (size_t r = 0; r < f.size(); ++r) d[r] = (f[r] - b[r]) * 1e3 / evals;
+      const double ps = median(d);
+      const auto [lo, hi] = std::minmax_element(d.begin(), d.end());
+      rows.push_back({{"label", e.label},
+                      {"reference", e.reference},
+                      {"error", e.error},
+                      {"cost", e.cost},
+                      {"cost_nvidia", e.nvidia},
+                      {"rdna2_instructions", e.rdna2},
+                      {"ps_per_eval", ps},
+                      {"ps_per_eval_min", *lo},
+                      {"ps_per_eval_max", *hi},
+                      {"formula_ns", f},
+                      {"baseline_ns", b},
+                      {"finite", run->finite[e.formula_kernel] && run->finite[e.baseline_kernel]}});
+      if (!e.reference && std::isfinite(e.rdna2) && std::isfinite(e.nvidia) &&
+          std::isfinite(e.cost) && std::isfinite(ps))
+        for (Series* v : {&one, &pooled}) {
+          v->rdna2.push_back(e.rdna2);
+          v->nvidia.push_back(e.nvidia);
+          v->cost.push_back(e.cost);
+          v->ps.push_back(ps);
+        }
+    }
+    fronts.push_back(
+        {{"front", front_paths[fi]}, {"correlation", correlation(one)}, {"formulas", rows}});
+  }
+  json result = {{"device",
+                  {{"name", dev.name},
+                   {"type", dev.type},
+                   {"driver", dev.driver},
+                   {"api", dev.api},
+                   {"all", dev.all}}},
+                 {"host_cpu", bench::cpuModel()},
+                 {"date", bench::utcNow()},
+                 {"lang", std::string(emit::toString(*lang))},
+                 {"invocations", invocations},
+                 {"iters", iters},
+                 {"rounds", rounds},
+                 {"warmup", warmup},
+                 {"kernels", kernels.size()},
+                 {"pooled", correlation(pooled)},
+                 {"fronts", fronts}};
+
+  // The report: how well each cost unit ranks the timings, per front and pooled, then every
+  // formula of the first front.
+  std::string md = "# GPU time of emitted formulas\n\n";
+  md += std::string(emit::toString(*lang)) + " as `lgp emit --fast` writes it, on **" + dev.name +
+        "** (" + dev.driver + ", Vulkan " + dev.api + "); host CPU " + bench::cpuModel() + "; " +
+        bench::utcNow() + ".\n\n";
+  md += "Each dispatch: " + std::to_string(invocations) + " invocations x " +
+        std::to_string(iters) + " evaluations; " + std::to_string(rounds) + " timed rounds after " +
+        std::to_string(warmup) + " warm-up rounds, each of the " + std::to_string(kernels.size()) +
+        " distinct kernels once per round. ps/eval: median over rounds of (formula kernel - its "
+        "I/O-only kernel, same round) per evaluation. Correlations over the members (references "
+        "left out).\n\n";
+  md +=
+      "| front | members | ps per RDNA2 instr | RDNA2: Pearson | Spearman | nvidia model: "
+      "Pearson | Spearman | run's model: Pearson | Spearman |\n";
+  md += "|---|---|---|---|---|---|---|---|---|\n";
+  auto corrRow = [&](const std::string& name, const json& c) {
+    md += "| " + name + " | " + std::to_string(c["members"].get<size_t>()) + " | " +
+          fmt(c["ps_per_rdna2_instruction"].get<double>(), "%.2f") + " | " +
+          fmt(c["pearson_rdna2"].get<double>()) + " | " + fmt(c["spearman_rdna2"].get<double>()) +
+          " | " + fmt(c["pearson_model_nvidia"].get<double>()) + " | " +
+          fmt(c["spearman_model_nvidia"].get<double>()) + " | " +
+          fmt(c["pearson_model_cost"].get<double>()) + " | " +
+          fmt(c["spearman_model_cost"].get<double>()) + " |\n";
+  };
+  for (const json& f : fronts) corrRow("`" + f["front"].get<std::string>() + "`", f["correlation"]);
+  if (fronts.size() > 1) corrRow("all, pooled", result["pooled"]);
+  md += "\n## Every formula of `" + front_paths[0] + "`\n\n";
+  md += "| formula | error | model cost | nvidia model | RDNA2 instr | ps/eval | [min, max] |\n";
+  md += "|---|---|---|---|---|---|---|\n";
+  for (const json& r : fronts[0]["formulas"]) {
+    md += "| " + r["label"].get<std::string>() + (r["finite"].get<bool>() ? "" : " (non-finite)") +
+          " | " + fmt(r["error"].get<double>(), "%.4g") + " | " + fmt(r["cost"].get<double>()) +
+          " | " + fmt(r["cost_nvidia"].get<double>()) + " | " +
+          fmt(r["rdna2_instructions"].get<double>(), "%.0f") + " | " +
+          fmt(r["ps_per_eval"].get<double>(), "%.2f") + " | " +
+          fmt(r["ps_per_eval_min"].get<double>(), "%.2f") + ", " +
+          fmt(r["ps_per_eval_max"].get<double>(), "%.2f") + " |\n";
+  }
+
+  const std::filesystem::path out = args["out"].as<std::string>();
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) die("--out: cannot create " + out.string() + ": " + ec.message());
+  std::ofstream(out / "results.json") << result.dump(1) << '\n';
+  std::ofstream(out / "report.md") << md;
+  std::printf("%s", md.c_str());
+  return 0;
+}

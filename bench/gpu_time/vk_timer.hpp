@@ -1,0 +1,55 @@
+// Times compute kernels on a Vulkan device with GPU timestamps (bench/gpu_time). Unlike the
+// lgp-gpu-worker, which refuses real GPUs, this is meant for one: the loader's devices are
+// listed and the first that is not a CPU device is used, or the one whose name contains
+// `device` (a CPU device, such as lavapipe, only with allow_cpu: its timings say nothing about
+// a GPU, but it runs the same code, which is what the test uses it for).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lgp/core/status.hpp"
+
+namespace lgp::bench {
+
+struct TimerOptions {
+  std::string device;      // substring of the device name; empty: the first GPU
+  bool allow_cpu = false;  // accept a CPU device
+};
+
+struct DeviceInfo {
+  std::string name, driver, api, type;  // type: "discrete", "integrated", "cpu", ...
+  std::vector<std::string> all;         // every device the loader listed
+  double timestamp_period_ns = 0;
+};
+
+struct TimedRun {
+  std::vector<std::vector<double>> ns;  // [kernel][round]: one dispatch each
+  std::vector<bool> finite;             // [kernel]: every value the kernel wrote is finite
+};
+
+class VkTimer {
+ public:
+  static Expected<std::unique_ptr<VkTimer>> open(const TimerOptions& o);
+  ~VkTimer();
+  VkTimer(const VkTimer&) = delete;
+  VkTimer& operator=(const VkTimer&) = delete;
+  const DeviceInfo& info() const { return info_; }
+
+  // Builds one pipeline per kernel (SPIR-V, the layout of timing_kernel.hpp), then for each
+  // round dispatches every kernel once, in order (rounds interleave the kernels, so a clock
+  // that drifts moves them all alike): `invocations` threads of `iters` iterations each.
+  // The first `warmup` rounds are run and dropped.
+  Expected<TimedRun> time(const std::vector<std::vector<uint32_t>>& kernels, uint32_t invocations,
+                          uint32_t iters, int rounds, int warmup);
+
+ private:
+  VkTimer() = default;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  DeviceInfo info_;
+};
+
+}  // namespace lgp::bench

@@ -1,0 +1,80 @@
+#!/bin/bash
+# lgp_gpu_time (bench/gpu_time) end to end on lavapipe, the CPU Vulkan driver: every member and
+# reference of a committed front is emitted, compiled and dispatched, each writes only finite
+# values, the identical I/O-only kernels are shared, and the report and results agree. Bad
+# input gets a message naming the option, and a GPU-only run on a machine with no GPU says
+# which devices there are. Timings on a CPU driver mean nothing and are not checked.
+# Usage: gpu_time_test.sh <lgp_gpu_time> <repo root>
+# Exit 77 (skipped) where lavapipe is not installed, a failure under LGP_TEST_NO_SKIP.
+set -u
+GT=$1
+ROOT=$2
+W=$(mktemp -d)
+trap 'rm -rf "$W"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+ICD=${LGP_LAVAPIPE_ICD:-}
+if [ -z "$ICD" ]; then
+  for d in /usr/share/vulkan/icd.d /etc/vulkan/icd.d; do
+    for f in "$d"/lvp_icd."$(uname -m)".json "$d"/lvp_icd.json; do
+      [ -f "$f" ] && ICD=$f && break 2
+    done
+  done
+fi
+if [ -z "$ICD" ]; then
+  [ -n "${LGP_TEST_NO_SKIP:-}" ] && [ "${LGP_TEST_NO_SKIP}" != 0 ] &&
+    fail "LGP_TEST_NO_SKIP is set and lavapipe's ICD (mesa-vulkan-drivers) is not installed"
+  echo "skipped: lavapipe's ICD not found (mesa-vulkan-drivers)"
+  exit 77
+fi
+export VK_ICD_FILENAMES=$ICD VK_DRIVER_FILES=$ICD VK_LOADER_LAYERS_DISABLE='~all~'
+FRONT=$ROOT/bench/results/quality/normalization_front.json
+SMALL=(--invocations 256 --iters 4 --rounds 2 --warmup 1)
+
+"$GT" --front "$FRONT" --out "$W/a" --allow-cpu "${SMALL[@]}" >"$W/out.txt" 2>&1 ||
+  fail "run on lavapipe: $(cat "$W/out.txt")"
+python3 - "$FRONT" "$W/a" <<'PY' || fail "results.json does not match the front"
+import json, math, sys
+front = json.load(open(sys.argv[1]))
+res = json.load(open(sys.argv[2] + "/results.json"))
+md = open(sys.argv[2] + "/report.md").read()
+assert res["device"]["type"] == "cpu", res["device"]
+(f,) = res["fronts"]
+rows = f["formulas"]
+members = [r for r in rows if not r["reference"]]
+refs = [r for r in rows if r["reference"]]
+assert len(members) == len(front["members"]), (len(members), len(front["members"]))
+assert [r["label"] for r in refs] == [r["name"] for r in front["references"]]
+assert all(r["finite"] for r in rows), [r["label"] for r in rows if not r["finite"]]
+for r, m in zip(members, front["members"]):
+    assert r["rdna2_instructions"] == m["cost_measured"]["rdna2"]["instructions"], r["label"]
+    assert r["error"] == m["error"], r["label"]
+    assert len(r["formula_ns"]) == 2 and len(r["baseline_ns"]) == 2, r["label"]
+    assert all(t > 0 for t in r["formula_ns"] + r["baseline_ns"]), r["label"]
+# Members reading the same inputs share one I/O-only kernel.
+assert res["kernels"] < 2 * len(rows), (res["kernels"], len(rows))
+c = f["correlation"]
+assert c["members"] == len(members)
+assert all(math.isfinite(c[k]) for k in c), c
+assert "| `" in md and "## Every formula of" in md
+assert md.count("\n| m") == len(members), md.count("\n| m")
+PY
+
+# Bad input: a message naming the option, exit 1, never a crash.
+expect_error() {  # <pattern> <args...>
+  local pat=$1
+  shift
+  "$GT" "$@" >"$W/e.txt" 2>&1
+  local rc=$?
+  [ "$rc" = 1 ] || fail "$* exited $rc, expected 1: $(cat "$W/e.txt")"
+  grep -q -- "$pat" "$W/e.txt" || fail "$*: no '$pat' in: $(cat "$W/e.txt")"
+}
+expect_error "--front: required" --out "$W/x"
+expect_error "--front: cannot read" --front "$W/none.json" --out "$W/x"
+echo '{"format": "lgp-front/1"}' >"$W/bad.json"
+expect_error "no members array" --front "$W/bad.json" --out "$W/x"
+expect_error "--lang: expected hlsl or glsl" --front "$FRONT" --out "$W/x" --lang cpp
+expect_error "--invocations: must be a positive multiple of 128" --front "$FRONT" --out "$W/x" \
+  --invocations 100
+# Only a CPU device and no --allow-cpu: the devices there are, by name.
+expect_error "no Vulkan device matches.*llvmpipe" --front "$FRONT" --out "$W/x"
+echo "ok"
