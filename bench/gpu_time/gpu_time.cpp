@@ -23,7 +23,9 @@
 #include <nlohmann/json.hpp>
 
 #include "../bench_util.hpp"
+#include "lgp/core/expr.hpp"
 #include "lgp/emit/emit.hpp"
+#include "lgp/eval/objectives.hpp"
 #include "spirv_compile.hpp"
 #include "timing_kernel.hpp"
 #include "vk_timer.hpp"
@@ -52,7 +54,33 @@ struct Entry {
   double error = std::nan("");
   double cost = std::nan(""), nvidia = std::nan(""), rdna2 = std::nan("");
   size_t formula_kernel = 0, baseline_kernel = 0;
+  // What the host needs to recompute the formula kernel's sums (checkSums).
+  Dag dag;
+  std::vector<TargetTransform> transforms;
+  std::vector<Interval> domain;
+  size_t num_inputs = 0;
 };
+
+// The formula kernel's sum for invocation i, recomputed on the host: the same input walk and
+// the emitted DAG evaluated as the float32 interpreter does, inverse transforms applied, summed
+// in float in the kernel's order. `scale` gets the sum of the terms' magnitudes.
+float hostSum(const Entry& e, uint32_t i, uint32_t iters, double& scale) {
+  std::vector<double> x(e.num_inputs);
+  float acc = 0;
+  scale = 0;
+  for (uint32_t k = 0; k < iters; ++k) {
+    for (size_t j = 0; j < x.size(); ++j) x[j] = bench::walkInput(e.domain, j, i, k);
+    const std::vector<double> v = evaluateRow(e.dag, x.data(), Precision::Float);
+    for (size_t o = 0; o < v.size(); ++o) {
+      const float term = static_cast<float>(
+          invertTransform(o < e.transforms.size() ? e.transforms[o] : TargetTransform::None,
+                          static_cast<double>(static_cast<float>(v[o]))));
+      acc += term;
+      scale += std::fabs(static_cast<double>(term));
+    }
+  }
+  return acc;
+}
 
 double numberAt(const json& j, const json::json_pointer& p) {
   return j.contains(p) && j.at(p).is_number() ? j.at(p).get<double>() : std::nan("");
@@ -110,7 +138,9 @@ int main(int argc, char** argv) {
       "device", "substring of the Vulkan device's name (default: the first GPU)",
       cxxopts::value<std::string>()->default_value(""))(
       "allow-cpu", "accept a CPU Vulkan device (lavapipe: runs, timings mean nothing)")(
-      "no-references", "time the members only")("h,help", "this help");
+      "no-references", "time the members only")(
+      "check", "invocations per formula whose sums are recomputed on the host and compared",
+      cxxopts::value<uint32_t>()->default_value("4"))("h,help", "this help");
   cxxopts::ParseResult args;
   try {
     args = opts.parse(argc, argv);
@@ -177,6 +207,10 @@ int main(int argc, char** argv) {
       entry.cost = numberAt(e, json::json_pointer("/cost"));
       entry.nvidia = numberAt(e, json::json_pointer("/cost_by_target/nvidia"));
       entry.rdna2 = numberAt(e, json::json_pointer("/cost_measured/rdna2/instructions"));
+      entry.dag = emitted->dag;
+      entry.transforms = input->transforms;
+      entry.domain = input->domain;
+      entry.num_inputs = static_cast<size_t>(emitted->num_inputs);
       entries[fi].push_back(entry);
     };
     for (size_t i = 0; i < front["members"].size(); ++i)
@@ -206,8 +240,16 @@ int main(int argc, char** argv) {
       "%d rounds (+%d warm-up)\n",
       formulas, kernels.size(), invocations, iters, rounds, warmup);
   std::fflush(stdout);
-  auto run = (*timer)->time(kernels, invocations, iters, rounds, warmup);
+  const uint32_t keep = std::min(args["check"].as<uint32_t>(), invocations);
+  auto run = (*timer)->time(kernels, invocations, iters, rounds, warmup, keep);
   if (!run) die(run.error());
+
+  // Each formula kernel computes its formula: its sums for the first `keep` invocations,
+  // recomputed on the host, agree to within kCheckTolerance of the sum of the terms'
+  // magnitudes (GPU transcendentals and fused multiply-adds differ in the last bits, and a
+  // formula that cancels amplifies that; a wrong input, output or loop differs by far more).
+  constexpr double kCheckTolerance = 1e-3;
+  size_t check_failures = 0;
 
   // Per formula: the median over rounds of (formula - its baseline), each pair timed in the
   // same round, in picoseconds per evaluation.
@@ -242,7 +284,25 @@ int main(int argc, char** argv) {
       for (size_t r = 0; r < f.size(); ++r) d[r] = (f[r] - b[r]) * 1e3 / evals;
       const double ps = median(d);
       const auto [lo, hi] = std::minmax_element(d.begin(), d.end());
+      double deviation = 0;  // the largest |gpu - host| / scale over the checked invocations
+      const auto& head = run->head[e.formula_kernel];
+      for (uint32_t i = 0; i < head.size(); ++i) {
+        double scale = 0;
+        const double want = hostSum(e, i, iters, scale);
+        const double gap = std::fabs(double(head[i]) - want) / std::max(scale, 1e-30);
+        deviation = std::max(deviation, std::isfinite(gap) ? gap : HUGE_VAL);
+      }
+      const bool checked = deviation <= kCheckTolerance;
+      if (!checked) {
+        ++check_failures;
+        std::fprintf(stderr,
+                     "lgp_gpu_time: %s %s: the kernel's sums differ from the host's by "
+                     "%.3g of their magnitude\n",
+                     front_paths[fi].c_str(), e.label.c_str(), deviation);
+      }
       rows.push_back({{"label", e.label},
+                      {"check_deviation", deviation},
+                      {"check_ok", checked},
                       {"reference", e.reference},
                       {"error", e.error},
                       {"cost", e.cost},
@@ -280,6 +340,9 @@ int main(int argc, char** argv) {
                  {"rounds", rounds},
                  {"warmup", warmup},
                  {"kernels", kernels.size()},
+                 {"checked_invocations", keep},
+                 {"check_tolerance", kCheckTolerance},
+                 {"check_failures", check_failures},
                  {"pooled", correlation(pooled)},
                  {"fronts", fronts}};
 
@@ -294,7 +357,10 @@ int main(int argc, char** argv) {
         std::to_string(warmup) + " warm-up rounds, each of the " + std::to_string(kernels.size()) +
         " distinct kernels once per round. ps/eval: median over rounds of (formula kernel - its "
         "I/O-only kernel, same round) per evaluation. Correlations over the members (references "
-        "left out).\n\n";
+        "left out). Each formula kernel's sums for its first " +
+        std::to_string(keep) + " invocations were recomputed on the host: " +
+        (check_failures ? std::to_string(check_failures) + " differ" : std::string("all agree")) +
+        ".\n\n";
   md +=
       "| front | members | ps per RDNA2 instr | RDNA2: Pearson | Spearman | nvidia model: "
       "Pearson | Spearman | run's model: Pearson | Spearman |\n";
@@ -330,5 +396,10 @@ int main(int argc, char** argv) {
   std::ofstream(out / "results.json") << result.dump(1) << '\n';
   std::ofstream(out / "report.md") << md;
   std::printf("%s", md.c_str());
+  if (check_failures) {
+    std::fprintf(stderr, "lgp_gpu_time: %zu formula kernels do not compute their formula\n",
+                 check_failures);
+    return 4;
+  }
   return 0;
 }

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace lgp::bench {
 namespace {
@@ -26,7 +27,24 @@ double stepOf(size_t j) {
   return r - std::floor(r);
 }
 
+// The walk's interval for input j: the domain's where finite, else [0, 1].
+std::pair<double, double> rangeOf(const std::vector<Interval>& domain, size_t j) {
+  if (j < domain.size() && domain[j].finite() && domain[j].hi >= domain[j].lo)
+    return {domain[j].lo, domain[j].hi};
+  return {0.0, 1.0};
+}
+
+constexpr double kStartScale = 1.0 / 4096.0;
+
 }  // namespace
+
+float walkInput(const std::vector<Interval>& domain, size_t j, uint32_t i, uint32_t k) {
+  const auto [lo, hi] = rangeOf(domain, j);
+  const float s = static_cast<float>(i & 4095u) * static_cast<float>(kStartScale);
+  const float u = s * static_cast<float>(1.0 + static_cast<double>(j)) +
+                  static_cast<float>(k) * static_cast<float>(stepOf(j));
+  return static_cast<float>(lo) + static_cast<float>(hi - lo) * (u - std::floor(u));
+}
 
 Expected<std::string> timingKernel(const emit::Emitted& e, emit::Language lang,
                                    const std::vector<Interval>& domain, emit::KernelBody body) {
@@ -58,18 +76,14 @@ Expected<std::string> timingKernel(const emit::Emitted& e, emit::Language lang,
          "  uint lgp_i = lgp_id.x;\n  uint lgp_n = lgp_pc.iters;\n";
   }
   // Per-invocation starts from the low 12 bits of the index (exact in float32).
-  s += "  float lgp_s = float(lgp_i & 4095u) * " + lit(1.0 / 4096.0) + ";\n";
+  s += "  float lgp_s = float(lgp_i & 4095u) * " + lit(kStartScale) + ";\n";
   s += "  float lgp_acc = 0.0;\n";
   s += "  for (uint lgp_k = 0u; lgp_k < lgp_n; ++lgp_k) {\n";
   s += "    float lgp_t = float(lgp_k);\n";
   const size_t ni = static_cast<size_t>(e.num_inputs);
   std::string args;
   for (size_t j = 0; j < ni; ++j) {
-    double lo = 0, hi = 1;
-    if (j < domain.size() && domain[j].finite() && domain[j].hi >= domain[j].lo) {
-      lo = domain[j].lo;
-      hi = domain[j].hi;
-    }
+    const auto [lo, hi] = rangeOf(domain, j);
     const std::string x = "lgp_x" + std::to_string(j);
     s += "    float " + x + " = " + lit(lo) + " + " + lit(hi - lo) + " * " + frac + "(lgp_s * " +
          lit(1.0 + static_cast<double>(j)) + " + lgp_t * " + lit(stepOf(j)) + ");\n";

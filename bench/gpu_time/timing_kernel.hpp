@@ -13,6 +13,7 @@
 // every evaluation sees different inputs inside the table's domain.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,10 @@
 namespace lgp::bench {
 
 inline constexpr unsigned kTimingWorkgroup = 128;
+
+// Input j of invocation i at iteration k, in float32 as the kernel computes it (a GPU may fuse
+// the multiply-adds, so the kernel's value can differ in the last bits).
+float walkInput(const std::vector<Interval>& domain, size_t j, uint32_t i, uint32_t k);
 
 // `e` emitted in float for `lang` (HLSL or GLSL); `domain` per input (empty or unbounded
 // intervals walk [0, 1]).

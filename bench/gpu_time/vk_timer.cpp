@@ -5,6 +5,7 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -182,7 +183,8 @@ struct Resources {
 }  // namespace
 
 Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kernels,
-                                 uint32_t invocations, uint32_t iters, int rounds, int warmup) {
+                                 uint32_t invocations, uint32_t iters, int rounds, int warmup,
+                                 uint32_t keep) {
   Impl& m = *impl_;
   if (invocations == 0 || invocations % kTimingWorkgroup != 0)
     return Status::error("invocations: must be a positive multiple of " +
@@ -284,6 +286,7 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
   TimedRun out;
   out.ns.assign(kernels.size(), {});
   out.finite.assign(kernels.size(), true);
+  out.head.assign(kernels.size(), {});
   for (int round = 0; round < warmup + rounds; ++round) {
     const bool last = round + 1 == warmup + rounds;
     for (size_t k = 0; k < kernels.size(); ++k) {
@@ -323,6 +326,7 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
       if (round >= warmup) out.ns[k].push_back(ticks * info_.timestamp_period_ns);
       if (last) {
         const float* v = static_cast<const float*>(r.map);
+        out.head[k].assign(v, v + std::min(keep, invocations));
         for (uint32_t i = 0; i < invocations; ++i)
           if (!std::isfinite(v[i])) {
             out.finite[k] = false;

@@ -26,8 +26,9 @@ struct DeviceInfo {
 };
 
 struct TimedRun {
-  std::vector<std::vector<double>> ns;  // [kernel][round]: one dispatch each
-  std::vector<bool> finite;             // [kernel]: every value the kernel wrote is finite
+  std::vector<std::vector<double>> ns;   // [kernel][round]: one dispatch each
+  std::vector<bool> finite;              // [kernel]: every value the kernel wrote is finite
+  std::vector<std::vector<float>> head;  // [kernel]: the values of the first `keep` invocations
 };
 
 class VkTimer {
@@ -41,9 +42,10 @@ class VkTimer {
   // Builds one pipeline per kernel (SPIR-V, the layout of timing_kernel.hpp), then for each
   // round dispatches every kernel once, in order (rounds interleave the kernels, so a clock
   // that drifts moves them all alike): `invocations` threads of `iters` iterations each.
-  // The first `warmup` rounds are run and dropped.
+  // The first `warmup` rounds are run and dropped. The last round's values of the first
+  // `keep` invocations of each kernel are kept (TimedRun::head), to be checked.
   Expected<TimedRun> time(const std::vector<std::vector<uint32_t>>& kernels, uint32_t invocations,
-                          uint32_t iters, int rounds, int warmup);
+                          uint32_t iters, int rounds, int warmup, uint32_t keep);
 
  private:
   VkTimer() = default;

@@ -1,7 +1,9 @@
 #!/bin/bash
 # lgp_gpu_time (bench/gpu_time) end to end on lavapipe, the CPU Vulkan driver: every member and
 # reference of a committed front is emitted, compiled and dispatched, each writes only finite
-# values, the identical I/O-only kernels are shared, and the report and results agree. Bad
+# values, each formula kernel's sums equal the host's recomputation of the formula (the tool's
+# own check, which exits 4 otherwise), the identical I/O-only kernels are shared, and the
+# report and results agree. Bad
 # input gets a message naming the option, and a GPU-only run on a machine with no GPU says
 # which devices there are. Timings on a CPU driver mean nothing and are not checked.
 # Usage: gpu_time_test.sh <lgp_gpu_time> <repo root>
@@ -28,7 +30,7 @@ if [ -z "$ICD" ]; then
 fi
 export VK_ICD_FILENAMES=$ICD VK_DRIVER_FILES=$ICD VK_LOADER_LAYERS_DISABLE='~all~'
 FRONT=$ROOT/bench/results/quality/normalization_front.json
-SMALL=(--invocations 256 --iters 4 --rounds 2 --warmup 1)
+SMALL=(--invocations 256 --iters 16 --rounds 2 --warmup 1 --check 4)
 
 "$GT" --front "$FRONT" --out "$W/a" --allow-cpu "${SMALL[@]}" >"$W/out.txt" 2>&1 ||
   fail "run on lavapipe: $(cat "$W/out.txt")"
@@ -45,6 +47,9 @@ refs = [r for r in rows if r["reference"]]
 assert len(members) == len(front["members"]), (len(members), len(front["members"]))
 assert [r["label"] for r in refs] == [r["name"] for r in front["references"]]
 assert all(r["finite"] for r in rows), [r["label"] for r in rows if not r["finite"]]
+assert res["checked_invocations"] == 4 and res["check_failures"] == 0, res["check_failures"]
+assert all(r["check_ok"] and r["check_deviation"] < 1e-4 for r in rows), \
+    [(r["label"], r["check_deviation"]) for r in rows if not r["check_ok"]]
 for r, m in zip(members, front["members"]):
     assert r["rdna2_instructions"] == m["cost_measured"]["rdna2"]["instructions"], r["label"]
     assert r["error"] == m["error"], r["label"]
@@ -55,7 +60,7 @@ assert res["kernels"] < 2 * len(rows), (res["kernels"], len(rows))
 c = f["correlation"]
 assert c["members"] == len(members)
 assert all(math.isfinite(c[k]) for k in c), c
-assert "| `" in md and "## Every formula of" in md
+assert "| `" in md and "## Every formula of" in md and "all agree" in md
 assert md.count("\n| m") == len(members), md.count("\n| m")
 PY
 
