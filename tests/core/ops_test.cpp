@@ -54,8 +54,12 @@ TEST(Ops, CalibratedCostTablesAreConsistent) {
       EXPECT_GE(i.cost[k], 0) << i.name;
       EXPECT_EQ(i.cost[k] * 4, std::round(i.cost[k] * 4)) << i.name;
       EXPECT_GE(i.guard_cost[k], 0) << i.name;
-      if (!i.guarded) EXPECT_EQ(i.guard_cost[k], 0) << i.name << " has no guard";
-      if (i.guarded && i.op != Op::Saturate) EXPECT_GT(i.guard_cost[k], 0) << i.name;
+      if (!i.guarded) {
+        EXPECT_EQ(i.guard_cost[k], 0) << i.name << " has no guard";
+      }
+      if (i.guarded && i.op != Op::Saturate) {
+        EXPECT_GT(i.guard_cost[k], 0) << i.name;
+      }
     }
     auto c = [&](Op op) { return opInfo(op).cost[k]; };
     EXPECT_GE(c(Op::Exp), c(Op::Exp2)) << toString(t);

@@ -93,7 +93,7 @@ TEST_P(Representation, SemanticCacheChangesNoFigure) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Variants, Representation, ::testing::ValuesIn(kVariants),
-                         [](const auto& info) { return std::string(info.param.name); });
+                         [](const auto& variant) { return std::string(variant.param.name); });
 
 // `lgp run` with both representations, the exhaustive enumeration and checkpoints: the
 // enumeration seeds the islands, the front reproduces its scores, and a resumed run writes the

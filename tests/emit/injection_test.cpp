@@ -22,7 +22,7 @@ EmitInput hostileInput() {
   EmitInput in;
   in.program = test::randomProgram(rng, 2, 8, 2, false);
   in.input_names = {kInject, "r\\"};
-  in.output_names = {"A\r\nint pwn(){return 1;}\n", "B??/"};
+  in.output_names = {"A\r\nint pwn(){return 1;}\n", "B?\?/"};
   in.table_desc = "/data/" + kInject + "\\";
   return in;
 }
@@ -34,7 +34,7 @@ EmitOptions hostileOptions(Precision prec) {
   o.source = "front.json\nint pwn(){return 1;}\n";
   // The last header line, right above the code: a trailing backslash or ??/ would swallow
   // the function's first line.
-  o.header_lines = {"\xC2\xB5 \x7f\x1b[2J", "ends in a backslash \\", "ends in a trigraph ??/"};
+  o.header_lines = {"\xC2\xB5 \x7f\x1b[2J", "ends in a backslash \\", "ends in a trigraph ?\?/"};
   return o;
 }
 
@@ -53,7 +53,7 @@ void expectNothingInjected(const std::string& code, const std::string& what) {
           << what << " line " << n << ": " << line;
     }
     EXPECT_TRUE(line.empty() || line.back() != '\\') << what << " line " << n << ": " << line;
-    EXPECT_EQ(line.find("??/"), std::string::npos) << what << " line " << n << ": " << line;
+    EXPECT_EQ(line.find("?\?/"), std::string::npos) << what << " line " << n << ": " << line;
     EXPECT_EQ(line.find('\r'), std::string::npos) << what << " line " << n;
     for (unsigned char c : line) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << what << " line " << n;
   }
@@ -66,7 +66,7 @@ void expectNothingInjected(const std::string& code, const std::string& what) {
 TEST(EmitInjection, CommentTextEscapesWhatCouldEndOrContinueAComment) {
   EXPECT_EQ(commentText("a\nb"), "a%0Ab");
   EXPECT_EQ(commentText("end\\"), "end%5C");
-  EXPECT_EQ(commentText("??/ ?? ?"), "?%3F/ ?%3F ?");
+  EXPECT_EQ(commentText("?\?/ ?\? ?"), "?%3F/ ?%3F ?");
   EXPECT_EQ(commentText("50% \xC2\xB5"), "50%25 %C2%B5");
   EXPECT_EQ(commentText("x*y + 0.5 (plain)"), "x*y + 0.5 (plain)");
 }
