@@ -87,6 +87,8 @@ double numberAt(const json& j, const json::json_pointer& p) {
 }
 
 std::vector<double> ranks(const std::vector<double>& v) {
+  if (std::any_of(v.begin(), v.end(), [](double a) { return !std::isfinite(a); }))
+    return std::vector<double>(v.size(), std::nan(""));  // no ranks: the correlation is NaN
   std::vector<size_t> idx(v.size());
   std::iota(idx.begin(), idx.end(), 0);
   std::sort(idx.begin(), idx.end(), [&](size_t a, size_t b) { return v[a] < v[b]; });
@@ -102,7 +104,9 @@ std::vector<double> ranks(const std::vector<double>& v) {
 
 double pearson(const std::vector<double>& x, const std::vector<double>& y) {
   const size_t n = x.size();
-  if (n < 3) return std::nan("");
+  if (n < 3 || y.size() != n) return std::nan("");
+  for (size_t i = 0; i < n; ++i)
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) return std::nan("");
   const double mx = std::accumulate(x.begin(), x.end(), 0.0) / double(n);
   const double my = std::accumulate(y.begin(), y.end(), 0.0) / double(n);
   double sxy = 0, sxx = 0, syy = 0;
@@ -140,7 +144,10 @@ int main(int argc, char** argv) {
       "allow-cpu", "accept a CPU Vulkan device (lavapipe: runs, timings mean nothing)")(
       "no-references", "time the members only")(
       "check", "invocations per formula whose sums are recomputed on the host and compared",
-      cxxopts::value<uint32_t>()->default_value("4"))("h,help", "this help");
+      cxxopts::value<uint32_t>()->default_value("4"))(
+      "stats-only",
+      "build the kernels and report the driver's statistics of each, run nothing (a "
+      "compile-only device such as RADV's null device)")("h,help", "this help");
   cxxopts::ParseResult args;
   try {
     args = opts.parse(argc, argv);
@@ -158,11 +165,13 @@ int main(int argc, char** argv) {
   if (!lang || *lang == emit::Language::Cpp) die("--lang: expected hlsl or glsl");
   const uint32_t invocations = args["invocations"].as<uint32_t>();
   const uint32_t iters = args["iters"].as<uint32_t>();
-  const int rounds = args["rounds"].as<int>(), warmup = args["warmup"].as<int>();
+  const bool stats_only = args.count("stats-only") > 0;
+  const int rounds = stats_only ? 0 : args["rounds"].as<int>();
+  const int warmup = stats_only ? 0 : args["warmup"].as<int>();
   if (invocations == 0 || invocations % bench::kTimingWorkgroup)
     die("--invocations: must be a positive multiple of 128");
   if (iters == 0) die("--iters: must be positive");
-  if (rounds < 1 || warmup < 0) die("--rounds: must be >= 1, --warmup >= 0");
+  if ((rounds < 1 && !stats_only) || warmup < 0) die("--rounds: must be >= 1, --warmup >= 0");
 
   // Emit and compile every formula and its I/O-only twin; identical kernels (most twins) are
   // compiled and timed once.
@@ -240,7 +249,7 @@ int main(int argc, char** argv) {
       "%d rounds (+%d warm-up)\n",
       formulas, kernels.size(), invocations, iters, rounds, warmup);
   std::fflush(stdout);
-  const uint32_t keep = std::min(args["check"].as<uint32_t>(), invocations);
+  const uint32_t keep = stats_only ? 0 : std::min(args["check"].as<uint32_t>(), invocations);
   auto run = (*timer)->time(kernels, invocations, iters, rounds, warmup, keep);
   if (!run) die(run.error());
 
@@ -256,6 +265,8 @@ int main(int argc, char** argv) {
   const double evals = double(invocations) * double(iters);
   struct Series {
     std::vector<double> rdna2, nvidia, cost, ps;
+    std::map<std::string, std::vector<double>> driver;  // per driver statistic, with ps_of
+    std::map<std::string, std::vector<double>> ps_of, rdna2_of;
   };
   auto correlation = [](const Series& v) {
     double sxy = 0, sxx = 0;  // least squares through the origin: ps per RDNA2 instruction
@@ -270,7 +281,20 @@ int main(int argc, char** argv) {
                 {"pearson_model_nvidia", pearson(v.nvidia, v.ps)},
                 {"spearman_model_nvidia", pearson(ranks(v.nvidia), ranks(v.ps))},
                 {"pearson_model_cost", pearson(v.cost, v.ps)},
-                {"spearman_model_cost", pearson(ranks(v.cost), ranks(v.ps))}};
+                {"spearman_model_cost", pearson(ranks(v.cost), ranks(v.ps))},
+                {"driver_statistics", [&] {
+                   json d = json::object();
+                   for (const auto& [name, x] : v.driver) {
+                     const auto& y = v.ps_of.at(name);
+                     const auto& z = v.rdna2_of.at(name);
+                     d[name] = {{"members", x.size()},
+                                {"pearson", pearson(x, y)},
+                                {"spearman", pearson(ranks(x), ranks(y))},
+                                {"pearson_rdna2", pearson(x, z)},
+                                {"spearman_rdna2", pearson(ranks(x), ranks(z))}};
+                   }
+                   return d;
+                 }()}};
   };
   Series pooled;
   json fronts = json::array();
@@ -284,6 +308,7 @@ int main(int argc, char** argv) {
       for (size_t r = 0; r < f.size(); ++r) d[r] = (f[r] - b[r]) * 1e3 / evals;
       const double ps = median(d);
       const auto [lo, hi] = std::minmax_element(d.begin(), d.end());
+      const double ps_min = d.empty() ? std::nan("") : *lo, ps_max = d.empty() ? std::nan("") : *hi;
       double deviation = 0;  // the largest |gpu - host| / scale over the checked invocations
       const auto& head = run->head[e.formula_kernel];
       for (uint32_t i = 0; i < head.size(); ++i) {
@@ -300,7 +325,16 @@ int main(int argc, char** argv) {
                      "%.3g of their magnitude\n",
                      front_paths[fi].c_str(), e.label.c_str(), deviation);
       }
+      // The driver's statistics of the formula kernel over its baseline's (where reported).
+      json driver = json::object();
+      const json& fs = run->stats[e.formula_kernel];
+      const json& bs = run->stats[e.baseline_kernel];
+      for (auto it = fs.begin(); it != fs.end(); ++it)
+        if (it->is_number() && bs.contains(it.key()) && bs[it.key()].is_number() &&
+            it.key().find("ash") == std::string::npos)  // a hash is no quantity
+          driver[it.key()] = it->get<double>() - bs[it.key()].get<double>();
       rows.push_back({{"label", e.label},
+                      {"driver_stats", driver},
                       {"check_deviation", deviation},
                       {"check_ok", checked},
                       {"reference", e.reference},
@@ -309,14 +343,19 @@ int main(int argc, char** argv) {
                       {"cost_nvidia", e.nvidia},
                       {"rdna2_instructions", e.rdna2},
                       {"ps_per_eval", ps},
-                      {"ps_per_eval_min", *lo},
-                      {"ps_per_eval_max", *hi},
+                      {"ps_per_eval_min", ps_min},
+                      {"ps_per_eval_max", ps_max},
                       {"formula_ns", f},
                       {"baseline_ns", b},
                       {"finite", run->finite[e.formula_kernel] && run->finite[e.baseline_kernel]}});
       if (!e.reference && std::isfinite(e.rdna2) && std::isfinite(e.nvidia) &&
-          std::isfinite(e.cost) && std::isfinite(ps))
+          std::isfinite(e.cost) && (stats_only || std::isfinite(ps)))
         for (Series* v : {&one, &pooled}) {
+          for (auto it = driver.begin(); it != driver.end(); ++it) {
+            v->driver[it.key()].push_back(it->get<double>());
+            v->ps_of[it.key()].push_back(ps);
+            v->rdna2_of[it.key()].push_back(e.rdna2);
+          }
           v->rdna2.push_back(e.rdna2);
           v->nvidia.push_back(e.nvidia);
           v->cost.push_back(e.cost);
@@ -331,13 +370,15 @@ int main(int argc, char** argv) {
                    {"type", dev.type},
                    {"driver", dev.driver},
                    {"api", dev.api},
-                   {"all", dev.all}}},
+                   {"all", dev.all},
+                   {"pipeline_statistics", dev.pipeline_statistics}}},
                  {"host_cpu", bench::cpuModel()},
                  {"date", bench::utcNow()},
                  {"lang", std::string(emit::toString(*lang))},
                  {"invocations", invocations},
                  {"iters", iters},
                  {"rounds", rounds},
+                 {"stats_only", stats_only},
                  {"warmup", warmup},
                  {"kernels", kernels.size()},
                  {"checked_invocations", keep},
@@ -352,15 +393,22 @@ int main(int argc, char** argv) {
   md += std::string(emit::toString(*lang)) + " as `lgp emit --fast` writes it, on **" + dev.name +
         "** (" + dev.driver + ", Vulkan " + dev.api + "); host CPU " + bench::cpuModel() + "; " +
         bench::utcNow() + ".\n\n";
-  md += "Each dispatch: " + std::to_string(invocations) + " invocations x " +
-        std::to_string(iters) + " evaluations; " + std::to_string(rounds) + " timed rounds after " +
-        std::to_string(warmup) + " warm-up rounds, each of the " + std::to_string(kernels.size()) +
-        " distinct kernels once per round. ps/eval: median over rounds of (formula kernel - its "
-        "I/O-only kernel, same round) per evaluation. Correlations over the members (references "
-        "left out). Each formula kernel's sums for its first " +
-        std::to_string(keep) + " invocations were recomputed on the host: " +
-        (check_failures ? std::to_string(check_failures) + " differ" : std::string("all agree")) +
-        ".\n\n";
+  if (stats_only) {
+    md += "Statistics only (`--stats-only`): each of the " + std::to_string(kernels.size()) +
+          " distinct kernels was compiled by the driver and nothing ran; the timing columns are "
+          "empty.\n\n";
+  } else {
+    md += "Each dispatch: " + std::to_string(invocations) + " invocations x " +
+          std::to_string(iters) + " evaluations; " + std::to_string(rounds) +
+          " timed rounds after " + std::to_string(warmup) + " warm-up rounds, each of the " +
+          std::to_string(kernels.size()) +
+          " distinct kernels once per round. ps/eval: median over rounds of (formula kernel - "
+          "its I/O-only kernel, same round) per evaluation. Correlations over the members "
+          "(references left out). Each formula kernel's sums for its first " +
+          std::to_string(keep) + " invocations were recomputed on the host: " +
+          (check_failures ? std::to_string(check_failures) + " differ" : std::string("all agree")) +
+          ".\n\n";
+  }
   md +=
       "| front | members | ps per RDNA2 instr | RDNA2: Pearson | Spearman | nvidia model: "
       "Pearson | Spearman | run's model: Pearson | Spearman |\n";
@@ -376,6 +424,20 @@ int main(int argc, char** argv) {
   };
   for (const json& f : fronts) corrRow("`" + f["front"].get<std::string>() + "`", f["correlation"]);
   if (fronts.size() > 1) corrRow("all, pooled", result["pooled"]);
+  const json& ds = result["pooled"]["driver_statistics"];
+  if (!ds.empty()) {
+    md +=
+        "\nThe driver's own statistics of each kernel (VK_KHR_pipeline_executable_properties), "
+        "formula minus baseline, against the timings and against the measured RDNA2 "
+        "instructions, all fronts pooled:\n\n"
+        "| driver statistic | members | time: Pearson r | Spearman rho | RDNA2: Pearson r | "
+        "Spearman rho |\n|---|---|---|---|---|---|\n";
+    for (auto it = ds.begin(); it != ds.end(); ++it)
+      md += "| " + it.key() + " | " + std::to_string((*it)["members"].get<size_t>()) + " | " +
+            fmt((*it)["pearson"].get<double>()) + " | " + fmt((*it)["spearman"].get<double>()) +
+            " | " + fmt((*it)["pearson_rdna2"].get<double>()) + " | " +
+            fmt((*it)["spearman_rdna2"].get<double>()) + " |\n";
+  }
   md += "\n## Every formula of `" + front_paths[0] + "`\n\n";
   md += "| formula | error | model cost | nvidia model | RDNA2 instr | ps/eval | [min, max] |\n";
   md += "|---|---|---|---|---|---|---|\n";

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <string>
 
 namespace lgp::bench {
 namespace {
@@ -41,12 +42,50 @@ struct VkTimer::Impl {
   VkQueue queue = VK_NULL_HANDLE;
   uint32_t family = 0;
   uint32_t timestamp_bits = 0;
+  PFN_vkGetPipelineExecutablePropertiesKHR get_exec = nullptr;
+  PFN_vkGetPipelineExecutableStatisticsKHR get_stats = nullptr;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
 
+  // Every statistic the driver reports for the pipeline's first executable, by its own name.
+  nlohmann::json statistics(VkPipeline p) const {
+    nlohmann::json out = nlohmann::json::object();
+    if (!get_exec || !get_stats) return out;
+    VkPipelineInfoKHR pi{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
+    pi.pipeline = p;
+    uint32_t ne = 0;
+    if (get_exec(device, &pi, &ne, nullptr) != VK_SUCCESS || ne == 0) return out;
+    VkPipelineExecutableInfoKHR ei{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+    ei.pipeline = p;
+    ei.executableIndex = 0;
+    uint32_t ns = 0;
+    if (get_stats(device, &ei, &ns, nullptr) != VK_SUCCESS) return out;
+    std::vector<VkPipelineExecutableStatisticKHR> st(
+        ns, VkPipelineExecutableStatisticKHR{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+    if (get_stats(device, &ei, &ns, st.data()) != VK_SUCCESS) return out;
+    for (const auto& x : st) {
+      switch (x.format) {
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
+          out[x.name] = x.value.u64;
+          break;
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
+          out[x.name] = x.value.i64;
+          break;
+        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR:
+          out[x.name] = x.value.f64;
+          break;
+        default:
+          break;
+      }
+    }
+    return out;
+  }
+
+  bool submitted = false;  // a compile-only device (RADV's null device) cannot even wait idle
+
   ~Impl() {
     if (device) {
-      vkDeviceWaitIdle(device);
+      if (submitted) vkDeviceWaitIdle(device);
       if (layout) vkDestroyPipelineLayout(device, layout, nullptr);
       if (set_layout) vkDestroyDescriptorSetLayout(device, set_layout, nullptr);
       vkDestroyDevice(device, nullptr);
@@ -117,6 +156,18 @@ Expected<std::unique_ptr<VkTimer>> VkTimer::open(const TimerOptions& o) {
     }
   if (m.family == std::numeric_limits<uint32_t>::max())
     return Status::error("the device has no compute queue with timestamps");
+  // The driver's own statistics of each kernel, where it reports them.
+  uint32_t next = 0;
+  vkEnumerateDeviceExtensionProperties(m.phys, nullptr, &next, nullptr);
+  std::vector<VkExtensionProperties> exts(next);
+  vkEnumerateDeviceExtensionProperties(m.phys, nullptr, &next, exts.data());
+  const char* kExecProps = VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME;
+  for (const auto& e : exts)
+    if (std::strcmp(e.extensionName, kExecProps) == 0) t->info_.pipeline_statistics = true;
+  VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR exec{
+      VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+  exec.pipelineExecutableInfo = VK_TRUE;
+
   float prio = 1.0f;
   VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
   qci.queueFamilyIndex = m.family;
@@ -125,9 +176,21 @@ Expected<std::unique_ptr<VkTimer>> VkTimer::open(const TimerOptions& o) {
   VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
   dci.queueCreateInfoCount = 1;
   dci.pQueueCreateInfos = &qci;
+  if (t->info_.pipeline_statistics) {
+    dci.pNext = &exec;
+    dci.enabledExtensionCount = 1;
+    dci.ppEnabledExtensionNames = &kExecProps;
+  }
   if (VkResult r = vkCreateDevice(m.phys, &dci, nullptr, &m.device); r != VK_SUCCESS)
     return Status::error(failed("vkCreateDevice", r));
   vkGetDeviceQueue(m.device, m.family, 0, &m.queue);
+  if (t->info_.pipeline_statistics) {
+    m.get_exec = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+        vkGetDeviceProcAddr(m.device, "vkGetPipelineExecutablePropertiesKHR"));
+    m.get_stats = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+        vkGetDeviceProcAddr(m.device, "vkGetPipelineExecutableStatisticsKHR"));
+    t->info_.pipeline_statistics = m.get_exec && m.get_stats;
+  }
 
   VkDescriptorSetLayoutBinding b{};
   b.binding = 0;
@@ -165,9 +228,10 @@ struct Resources {
   VkQueryPool queries = VK_NULL_HANDLE;
   VkCommandPool cpool = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
+  bool submitted = false;
   explicit Resources(VkDevice d) : dev(d) {}
   ~Resources() {
-    vkDeviceWaitIdle(dev);
+    if (submitted) vkDeviceWaitIdle(dev);
     if (fence) vkDestroyFence(dev, fence, nullptr);
     if (cpool) vkDestroyCommandPool(dev, cpool, nullptr);
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
@@ -189,7 +253,7 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
   if (invocations == 0 || invocations % kTimingWorkgroup != 0)
     return Status::error("invocations: must be a positive multiple of " +
                          std::to_string(kTimingWorkgroup));
-  if (rounds < 1 || warmup < 0) return Status::error("rounds >= 1 and warmup >= 0");
+  if (rounds < 0 || warmup < 0) return Status::error("rounds and warmup must be >= 0");
   Resources r(m.device);
   for (const auto& spirv : kernels) {
     VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
@@ -200,6 +264,7 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
       return Status::error(failed("vkCreateShaderModule", e));
     r.modules.push_back(sm);
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    if (m.get_stats) ci.flags = VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
     ci.stage.module = sm;
@@ -211,6 +276,12 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
       return Status::error(failed("vkCreateComputePipelines", e));
     r.pipelines.push_back(p);
   }
+  TimedRun out;
+  for (VkPipeline p : r.pipelines) out.stats.push_back(m.statistics(p));
+  out.ns.assign(kernels.size(), {});
+  out.finite.assign(kernels.size(), true);
+  out.head.assign(kernels.size(), {});
+  if (rounds == 0) return out;  // compile only: the statistics
 
   // The output: one float per invocation, host-visible (device-local too where offered).
   const VkDeviceSize bytes = VkDeviceSize(invocations) * sizeof(float);
@@ -283,10 +354,6 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
 
   const uint64_t mask =
       m.timestamp_bits >= 64 ? ~uint64_t{0} : (uint64_t{1} << m.timestamp_bits) - 1;
-  TimedRun out;
-  out.ns.assign(kernels.size(), {});
-  out.finite.assign(kernels.size(), true);
-  out.head.assign(kernels.size(), {});
   for (int round = 0; round < warmup + rounds; ++round) {
     const bool last = round + 1 == warmup + rounds;
     for (size_t k = 0; k < kernels.size(); ++k) {
@@ -311,6 +378,7 @@ Expected<TimedRun> VkTimer::time(const std::vector<std::vector<uint32_t>>& kerne
       si.commandBufferCount = 1;
       si.pCommandBuffers = &cb;
       vkResetFences(m.device, 1, &r.fence);
+      r.submitted = m.submitted = true;
       if (VkResult e = vkQueueSubmit(m.queue, 1, &si, r.fence); e != VK_SUCCESS)
         return Status::error(failed("vkQueueSubmit", e));
       if (VkResult e = vkWaitForFences(m.device, 1, &r.fence, VK_TRUE, 120ull * 1000 * 1000 * 1000);

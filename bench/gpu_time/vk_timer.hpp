@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "lgp/core/status.hpp"
 
 namespace lgp::bench {
@@ -23,12 +25,16 @@ struct DeviceInfo {
   std::string name, driver, api, type;  // type: "discrete", "integrated", "cpu", ...
   std::vector<std::string> all;         // every device the loader listed
   double timestamp_period_ns = 0;
+  bool pipeline_statistics = false;  // VK_KHR_pipeline_executable_properties is enabled
 };
 
 struct TimedRun {
   std::vector<std::vector<double>> ns;   // [kernel][round]: one dispatch each
   std::vector<bool> finite;              // [kernel]: every value the kernel wrote is finite
   std::vector<std::vector<float>> head;  // [kernel]: the values of the first `keep` invocations
+  // [kernel]: the driver's own statistics of the compiled kernel, by the driver's names (where
+  // it offers VK_KHR_pipeline_executable_properties; else empty objects)
+  std::vector<nlohmann::json> stats;
 };
 
 class VkTimer {
@@ -42,7 +48,8 @@ class VkTimer {
   // Builds one pipeline per kernel (SPIR-V, the layout of timing_kernel.hpp), then for each
   // round dispatches every kernel once, in order (rounds interleave the kernels, so a clock
   // that drifts moves them all alike): `invocations` threads of `iters` iterations each.
-  // The first `warmup` rounds are run and dropped. The last round's values of the first
+  // The first `warmup` rounds are run and dropped. rounds = 0: the pipelines are built and
+  // their statistics read, nothing runs (a compile-only device such as RADV's null device). The last round's values of the first
   // `keep` invocations of each kernel are kept (TimedRun::head), to be checked.
   Expected<TimedRun> time(const std::vector<std::vector<uint32_t>>& kernels, uint32_t invocations,
                           uint32_t iters, int rounds, int warmup, uint32_t keep);

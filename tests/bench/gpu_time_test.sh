@@ -59,9 +59,34 @@ for r, m in zip(members, front["members"]):
 assert res["kernels"] < 2 * len(rows), (res["kernels"], len(rows))
 c = f["correlation"]
 assert c["members"] == len(members)
-assert all(math.isfinite(c[k]) for k in c), c
+assert all(math.isfinite(c[k]) for k in c if k != "driver_statistics"), c
 assert "| `" in md and "## Every formula of" in md and "all agree" in md
 assert md.count("\n| m") == len(members), md.count("\n| m")
+PY
+
+# --stats-only on RADV's null device (compiles for an AMD GPU, runs nothing): the driver's own
+# statistics of every kernel, formula minus baseline; ACO's instruction count of the timing
+# kernel ranks the formulas as the front's measured RDNA2 count does.
+RADV=""
+for d in /usr/share/vulkan/icd.d /etc/vulkan/icd.d; do
+  for f in "$d"/radeon_icd."$(uname -m)".json "$d"/radeon_icd.json; do
+    [ -f "$f" ] && RADV=$f && break 2
+  done
+done
+[ -n "$RADV" ] || fail "RADV's ICD (mesa-vulkan-drivers) is not installed beside lavapipe's"
+VK_ICD_FILENAMES=$RADV VK_DRIVER_FILES=$RADV RADV_FORCE_FAMILY=navi21 \
+  "$GT" --front "$FRONT" --out "$W/s" --stats-only >"$W/out.txt" 2>&1 ||
+  fail "--stats-only on RADV's null device: $(cat "$W/out.txt")"
+python3 - "$W/s" <<'PY' || fail "--stats-only results"
+import json, sys
+res = json.load(open(sys.argv[1] + "/results.json"))
+assert res["stats_only"] and res["device"]["pipeline_statistics"], res["device"]
+rows = [r for r in res["fronts"][0]["formulas"] if not r["reference"]]
+assert all("Instructions" in r["driver_stats"] and r["ps_per_eval"] is None for r in rows)
+assert not any("ash" in k for r in rows for k in r["driver_stats"])
+c = res["pooled"]["driver_statistics"]["Instructions"]
+assert c["members"] == len(rows) and c["spearman_rdna2"] > 0.8, c
+assert "Statistics only" in open(sys.argv[1] + "/report.md").read()
 PY
 
 # Bad input: a message naming the option, exit 1, never a crash.
