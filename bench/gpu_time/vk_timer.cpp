@@ -1,6 +1,7 @@
 // Vulkan timestamps around compute dispatches: see vk_timer.hpp.
 #include "vk_timer.hpp"
 
+#include "pipeline_statistics.hpp"
 #include "timing_kernel.hpp"
 
 #include <vulkan/vulkan.h>
@@ -47,38 +48,11 @@ struct VkTimer::Impl {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
 
-  // Every statistic the driver reports for the pipeline's first executable, by its own name.
+  // The driver's statistics of a pipeline (empty where it reports none).
   nlohmann::json statistics(VkPipeline p) const {
-    nlohmann::json out = nlohmann::json::object();
-    if (!get_exec || !get_stats) return out;
-    VkPipelineInfoKHR pi{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
-    pi.pipeline = p;
-    uint32_t ne = 0;
-    if (get_exec(device, &pi, &ne, nullptr) != VK_SUCCESS || ne == 0) return out;
-    VkPipelineExecutableInfoKHR ei{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
-    ei.pipeline = p;
-    ei.executableIndex = 0;
-    uint32_t ns = 0;
-    if (get_stats(device, &ei, &ns, nullptr) != VK_SUCCESS) return out;
-    std::vector<VkPipelineExecutableStatisticKHR> st(
-        ns, VkPipelineExecutableStatisticKHR{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
-    if (get_stats(device, &ei, &ns, st.data()) != VK_SUCCESS) return out;
-    for (const auto& x : st) {
-      switch (x.format) {
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
-          out[x.name] = x.value.u64;
-          break;
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
-          out[x.name] = x.value.i64;
-          break;
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR:
-          out[x.name] = x.value.f64;
-          break;
-        default:
-          break;
-      }
-    }
-    return out;
+    if (!get_exec || !get_stats) return nlohmann::json::object();
+    std::string error;
+    return spirv::pipelineStatistics({device, get_exec, get_stats}, p, error);
   }
 
   bool submitted = false;  // a compile-only device (RADV's null device) cannot even wait idle

@@ -34,6 +34,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "pipeline_statistics.hpp"
 #include "spirv_compile.hpp"
 
 namespace {
@@ -193,43 +194,9 @@ class Device {
 
   json stats(const std::vector<uint32_t>& spirv) {
     Pipeline p(*this, spirv, true);
-    VkPipelineInfoKHR pi{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
-    pi.pipeline = p.pipeline;
-    uint32_t ne = 0;
-    check(get_exec_(device_, &pi, &ne, nullptr), "vkGetPipelineExecutablePropertiesKHR");
-    std::vector<VkPipelineExecutablePropertiesKHR> ep(
-        ne,
-        VkPipelineExecutablePropertiesKHR{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
-    check(get_exec_(device_, &pi, &ne, ep.data()), "vkGetPipelineExecutablePropertiesKHR");
-    if (ne == 0) throw Failure("the pipeline has no executable");
-    VkPipelineExecutableInfoKHR ei{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
-    ei.pipeline = p.pipeline;
-    ei.executableIndex = 0;
-    uint32_t ns = 0;
-    check(get_stats_(device_, &ei, &ns, nullptr), "vkGetPipelineExecutableStatisticsKHR");
-    std::vector<VkPipelineExecutableStatisticKHR> st(
-        ns, VkPipelineExecutableStatisticKHR{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
-    check(get_stats_(device_, &ei, &ns, st.data()), "vkGetPipelineExecutableStatisticsKHR");
-    json out = json::object();
-    for (const auto& s : st) {
-      switch (s.format) {
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR:
-          out[s.name] = s.value.u64;
-          break;
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR:
-          out[s.name] = s.value.i64;
-          break;
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR:
-          out[s.name] = s.value.f64;
-          break;
-        case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR:
-          out[s.name] = s.value.b32 == VK_TRUE;
-          break;
-        default:
-          break;
-      }
-    }
-    out["Subgroup size"] = ep[0].subgroupSize;
+    std::string error;
+    json out = lgp::spirv::pipelineStatistics({device_, get_exec_, get_stats_}, p.pipeline, error);
+    if (!error.empty()) throw Failure(error);
     return out;
   }
 
