@@ -10,6 +10,7 @@
 #include <glslang/Public/ShaderLang.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -116,6 +117,13 @@ double pearson(const std::vector<double>& x, const std::vector<double>& y) {
     syy += (y[i] - my) * (y[i] - my);
   }
   return sxx > 0 && syy > 0 ? sxy / std::sqrt(sxx * syy) : std::nan("");
+}
+
+// A statistic that identifies the code ("Hash", "Driver pipeline hash"): no quantity to
+// subtract or correlate.
+bool isHash(std::string name) {
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name.find("hash") != std::string::npos;
 }
 
 std::string fmt(double v, const char* f = "%.3g") {
@@ -331,7 +339,7 @@ int main(int argc, char** argv) {
       const json& bs = run->stats[e.baseline_kernel];
       for (auto it = fs.begin(); it != fs.end(); ++it)
         if (it->is_number() && bs.contains(it.key()) && bs[it.key()].is_number() &&
-            it.key().find("ash") == std::string::npos)  // a hash is no quantity
+            !isHash(it.key()))
           driver[it.key()] = it->get<double>() - bs[it.key()].get<double>();
       rows.push_back({{"label", e.label},
                       {"driver_stats", driver},
