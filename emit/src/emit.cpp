@@ -614,7 +614,15 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
   so.pow_rewrites = opts.pow_rewrites;
   so.domain_rewrites = opts.domain_rewrites;
   Emitted out;
-  out.dag = simplify(buildDag(in.program, ni), so);
+  Dag dag = buildDag(in.program, ni);
+  if (opts.precision == Precision::Half) {
+    // Folded in float32 first, as it was scored: a term the scored program drops (0 times a
+    // constant beyond binary16's range, which half would make 0*inf = NaN) never reaches half.
+    SimplifyOptions scored = so;
+    scored.precision = Precision::Float;
+    dag = simplify(dag, scored);
+  }
+  out.dag = simplify(dag, so);
   out.formula = printFormula(out.dag, in.input_names, in.output_names).text();
   const Dag& d = out.dag;
   const std::vector<Interval> iv = nodeIntervals(d, in.domain);

@@ -209,5 +209,33 @@ TEST(EmitDag, HalfRounding) {
   EXPECT_EQ(applyHalf(Op::Exp2, 40.0f, 0, 0, 0), 32768.0f);   // clamp at 15
 }
 
+// A slope of 0 on a value beyond binary16's range (a front member's constant output: the
+// scored float32 program computes 0*1e20 + b = b) must export as b in half, not 0*inf + b.
+TEST(EmitDag, HalfKeepsOnlyWhatTheScoredProgramComputes) {
+  Program p;
+  p.code.push_back(Instr{Op::Add, {constOperand(0), constOperand(1)}});  // 1e20 + -0
+  p.code.push_back(Instr{Op::Add, {inputOperand(0), constOperand(0)}});  // x + 1e20
+  p.code.push_back(Instr{Op::Mad, {regOperand(0), constOperand(2), constOperand(3)}});
+  p.code.push_back(Instr{Op::Mad, {regOperand(1), constOperand(2), constOperand(3)}});
+  p.constants = {1.0e20f, -0.0f, 0.0f, 0.06557155f};
+  p.outputs = {2, 3};
+  EmitInput in;
+  in.program = p;
+  in.input_names = {"mu", "r"};
+  in.output_names = {"A", "B"};
+  in.domain = {Interval{0.015625, 1, false}, Interval{0, 1, false}};
+  for (Language lang : {Language::Hlsl, Language::Glsl}) {
+    EmitOptions o;
+    o.precision = Precision::Half;
+    auto e = emitProgram(in, lang, o);
+    ASSERT_TRUE(e.hasValue()) << e.error();
+    EXPECT_EQ(e->formula, "A = 0.06555176; B = 0.06555176") << e->code;
+    EXPECT_EQ(e->code.find("0x7F800000"), std::string::npos) << e->code;
+    const double row[2] = {0.5, 0.5};
+    for (double v : evaluateRow(e->dag, row, Precision::Half))
+      EXPECT_EQ(v, double(roundToHalf(0.06557155f)));
+  }
+}
+
 }  // namespace
 }  // namespace lgp::emit
