@@ -785,6 +785,8 @@ void writeVulkan(std::ostringstream& md, const TableResult& r) {
         "beside the interpreter's.\n\n| # | GLSL float | GLSL half | HLSL float | HLSL half | "
         "RMS (driver / lgp) |\n|---|---|---|---|---|---|\n";
   double worst_f = 0, worst_h = 0;
+  std::vector<std::string> nonfinite;  // member and check where driver and lgp disagree on
+                                       // which rows are finite (no ulp distance exists)
   for (const auto& m : r.vulkan["members"]) {
     md << "| " << m["member"].get<size_t>() << " |";
     std::string rms = "-";
@@ -799,8 +801,12 @@ void writeVulkan(std::ostringstream& md, const TableResult& r) {
       }
       const double w =
           c["worst_scaled_ulp"].is_number() ? c["worst_scaled_ulp"].get<double>() : INFINITY;
-      (c["precision"] == "half" ? worst_h : worst_f) =
-          std::max(c["precision"] == "half" ? worst_h : worst_f, w);
+      if (std::isfinite(w))
+        (c["precision"] == "half" ? worst_h : worst_f) =
+            std::max(c["precision"] == "half" ? worst_h : worst_f, w);
+      else
+        nonfinite.push_back("#" + std::to_string(m["member"].get<size_t>()) + " " +
+                            c["lang"].get<std::string>() + " " + c["precision"].get<std::string>());
       md << " " << fmt(w) << " |";
       if (rms == "-" && c["precision"] == "float" && !c["outputs"].empty())
         rms = fmt(getNum(c["outputs"][0]["driver"], "rmse", INFINITY)) + " / " +
@@ -808,8 +814,12 @@ void writeVulkan(std::ostringstream& md, const TableResult& r) {
     }
     md << " " << rms << " |\n";
   }
-  md << "\nWorst: " << fmt(worst_f) << " ulps (float), " << fmt(worst_h)
-     << " binary16 ulps (half).\n\n";
+  md << "\nWorst: " << fmt(worst_f) << " ulps (float), " << fmt(worst_h) << " binary16 ulps (half)";
+  if (!nonfinite.empty()) {
+    md << "; not finite on the same rows (\"-\"): ";
+    for (size_t i = 0; i < nonfinite.size(); ++i) md << (i ? ", " : "") << nonfinite[i];
+  }
+  md << ".\n\n";
 }
 
 // "### Search levers": the ablation runs (none: no section).

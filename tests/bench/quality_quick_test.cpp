@@ -66,6 +66,19 @@ TEST_F(QualityQuick, ReportHasEverySectionForEveryTable) {
   EXPECT_EQ(md.find("invalid:"), std::string::npos);
   EXPECT_EQ(md.find("nan"), std::string::npos);
   EXPECT_EQ(md.find("inf |"), std::string::npos);
+  // Every member's shaders ran in the driver, in float and half, and agree with lgp on which
+  // rows are finite (a check where they do not is listed after "Worst:").
+  const std::regex worst(
+      R"(Worst: [0-9.e+-]+ ulps \(float\), [0-9.e+-]+ binary16 ulps \(half\)\.)");
+  size_t sections = 0, lines = 0;
+  for (size_t p = md.find("### In a Vulkan driver"); p != std::string::npos;
+       p = md.find("### In a Vulkan driver", p + 1))
+    sections += md.compare(p, 33, "### In a Vulkan driver\n\nNot run: ") != 0;
+  for (auto it = std::sregex_iterator(md.begin(), md.end(), worst); it != std::sregex_iterator();
+       ++it)
+    ++lines;
+  EXPECT_EQ(md.find("not finite on the same rows"), std::string::npos);
+  EXPECT_EQ(lines, sections);
 }
 
 TEST_F(QualityQuick, EveryLinkedFileExistsAndIsWellFormed) {
