@@ -41,6 +41,17 @@ inline std::string cpuModel() {
   return "unknown";
 }
 
+// A markdown table cell: '|' escaped, line breaks joined with spaces (a reference's name or a
+// compiler's multi-line message stays one cell).
+inline std::string mdEscape(const std::string& s) {
+  std::string o;
+  for (char c : s)
+    o += c == '|'                   ? std::string("\\|")
+         : (c == '\n' || c == '\r') ? std::string(" ")
+                                    : std::string(1, c);
+  return o;
+}
+
 inline std::string utcNow() {
   const std::time_t t = std::time(nullptr);
   std::tm tm{};

@@ -430,7 +430,8 @@ int main(int argc, char** argv) {
           fmt(c["pearson_model_cost"].get<double>()) + " | " +
           fmt(c["spearman_model_cost"].get<double>()) + " |\n";
   };
-  for (const json& f : fronts) corrRow("`" + f["front"].get<std::string>() + "`", f["correlation"]);
+  for (const json& f : fronts)
+    corrRow("`" + bench::mdEscape(f["front"].get<std::string>()) + "`", f["correlation"]);
   if (fronts.size() > 1) corrRow("all, pooled", result["pooled"]);
   const json& ds = result["pooled"]["driver_statistics"];
   if (!ds.empty()) {
@@ -441,18 +442,20 @@ int main(int argc, char** argv) {
         "| driver statistic | members | time: Pearson r | Spearman rho | RDNA2: Pearson r | "
         "Spearman rho |\n|---|---|---|---|---|---|\n";
     for (auto it = ds.begin(); it != ds.end(); ++it)
-      md += "| " + it.key() + " | " + std::to_string((*it)["members"].get<size_t>()) + " | " +
+      md += "| " + bench::mdEscape(it.key()) + " | " +
+            std::to_string((*it)["members"].get<size_t>()) + " | " +
             fmt((*it)["pearson"].get<double>()) + " | " + fmt((*it)["spearman"].get<double>()) +
             " | " + fmt((*it)["pearson_rdna2"].get<double>()) + " | " +
             fmt((*it)["spearman_rdna2"].get<double>()) + " |\n";
   }
-  md += "\n## Every formula of `" + front_paths[0] + "`\n\n";
+  md += "\n## Every formula of `" + bench::mdEscape(front_paths[0]) + "`\n\n";
   md += "| formula | error | model cost | nvidia model | RDNA2 instr | ps/eval | [min, max] |\n";
   md += "|---|---|---|---|---|---|---|\n";
   for (const json& r : fronts[0]["formulas"]) {
-    md += "| " + r["label"].get<std::string>() + (r["finite"].get<bool>() ? "" : " (non-finite)") +
-          " | " + fmt(r["error"].get<double>(), "%.4g") + " | " + fmt(r["cost"].get<double>()) +
-          " | " + fmt(r["cost_nvidia"].get<double>()) + " | " +
+    md += "| " + bench::mdEscape(r["label"].get<std::string>()) +
+          (r["finite"].get<bool>() ? "" : " (non-finite)") + " | " +
+          fmt(r["error"].get<double>(), "%.4g") + " | " + fmt(r["cost"].get<double>()) + " | " +
+          fmt(r["cost_nvidia"].get<double>()) + " | " +
           fmt(r["rdna2_instructions"].get<double>(), "%.0f") + " | " +
           fmt(r["ps_per_eval"].get<double>(), "%.2f") + " | " +
           fmt(r["ps_per_eval_min"].get<double>(), "%.2f") + ", " +

@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../bench_util.hpp"
 #include "lgp/config/config.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/emit/gpu_cost.hpp"
@@ -39,6 +40,7 @@
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using lgp::bench::mdEscape;
 
 namespace {
 
@@ -138,16 +140,6 @@ std::string fmt(double v, const char* f = "%.4g") {
   char b[64];
   std::snprintf(b, sizeof(b), f, v);
   return b;
-}
-
-std::string mdEscape(const std::string& s) {
-  std::string o;
-  // A table cell is one line: a compiler's multi-line message is joined with spaces.
-  for (char c : s)
-    o += c == '|'                   ? std::string("\\|")
-         : (c == '\n' || c == '\r') ? std::string(" ")
-                                    : std::string(1, c);
-  return o;
 }
 
 // A metric of a front member or scored reference, by channel or output name.

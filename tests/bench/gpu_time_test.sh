@@ -89,6 +89,25 @@ assert c["members"] == len(rows) and c["spearman_rdna2"] > 0.8, c
 assert "Statistics only" in open(sys.argv[1] + "/report.md").read()
 PY
 
+# A reference named with a '|' and a line break stays one table cell.
+python3 - "$FRONT" "$W/odd.json" <<'PY'
+import json, sys
+f = json.load(open(sys.argv[1]))
+f["references"][0]["name"] = "odd | name\nnext"
+json.dump(f, open(sys.argv[2], "w"))
+PY
+VK_ICD_FILENAMES=$RADV VK_DRIVER_FILES=$RADV RADV_FORCE_FAMILY=navi21 \
+  "$GT" --front "$W/odd.json" --out "$W/o" --stats-only >"$W/out.txt" 2>&1 ||
+  fail "--stats-only, odd reference name: $(cat "$W/out.txt")"
+python3 - "$W/o/report.md" <<'PY' || fail "a reference's name breaks the report's table"
+import re, sys
+md = open(sys.argv[1]).read()
+assert "| odd \\| name next |" in md, md[-2000:]
+rows = md.split("## Every formula of")[1].splitlines()[2:]
+rows = [r for r in rows if r.startswith("|")]
+assert rows and all(len(re.findall(r"(?<!\\)\|", r)) == 8 for r in rows), rows[:3]
+PY
+
 # Bad input: a message naming the option, exit 1, never a crash.
 expect_error() {  # <pattern> <args...>
   local pat=$1
