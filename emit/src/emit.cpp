@@ -592,6 +592,14 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
   for (const auto& l : opts.header_lines) line(l);
   if (lang == Language::Glsl && opts.precision == Precision::Half)
     line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
+  if (!out.half_overflow.empty()) {
+    std::string cs;
+    for (size_t i = 0; i < out.half_overflow.size(); ++i)
+      cs += (i ? ", " : "") + formatFloat(static_cast<float>(out.half_overflow[i]));
+    line("Warning: constant" + std::string(out.half_overflow.size() > 1 ? "s " : " ") + cs +
+         " beyond binary16's range (65504): infinite in half, so this member does not suit a "
+         "half export (use float)");
+  }
   if (lang == Language::Cpp && opts.exact_math)
     line(
         "Exact math: bit-identical to the lgp float32 interpreter (compile with "
@@ -621,6 +629,10 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
     SimplifyOptions scored = so;
     scored.precision = Precision::Float;
     dag = simplify(dag, scored);
+    for (const Node& n : dag.nodes)
+      if (n.isConst() && std::isfinite(n.value) &&
+          !std::isfinite(roundToHalf(static_cast<float>(n.value))))
+        out.half_overflow.push_back(n.value);
   }
   out.dag = simplify(dag, so);
   out.formula = printFormula(out.dag, in.input_names, in.output_names).text();

@@ -234,6 +234,23 @@ TEST(EmitDag, HalfKeepsOnlyWhatTheScoredProgramComputes) {
     const double row[2] = {0.5, 0.5};
     for (double v : evaluateRow(e->dag, row, Precision::Half))
       EXPECT_EQ(v, double(roundToHalf(0.06557155f)));
+    EXPECT_TRUE(e->half_overflow.empty());
+    EXPECT_EQ(e->code.find("Warning: constant"), std::string::npos) << e->code;
+  }
+  // A constant the scored program needs beyond binary16's range is named in the header.
+  p.code[2] = Instr{Op::Mad, {inputOperand(1), constOperand(0), constOperand(3)}};  // r*1e20 + b
+  for (Precision prec : {Precision::Half, Precision::Float}) {
+    EmitOptions o;
+    o.precision = prec;
+    in.program = p;
+    auto e = emitProgram(in, Language::Hlsl, o);
+    ASSERT_TRUE(e.hasValue()) << e.error();
+    const bool half = prec == Precision::Half;
+    EXPECT_EQ(e->half_overflow, half ? std::vector<double>{1e20f} : std::vector<double>{});
+    EXPECT_EQ(e->code.find("// Warning: constant 1e+20 beyond binary16's range (65504): "
+                           "infinite in half") != std::string::npos,
+              half)
+        << e->code;
   }
 }
 

@@ -94,6 +94,9 @@ struct Emitted {
   // or header. A shader built around it costs what the surrounding I/O costs, so subtracting
   // its cost leaves the formula's own (gpu_cost.hpp).
   std::string io_baseline;
+  // Half precision: the constants of the code (as scored, in float32) beyond binary16's range,
+  // which are infinite in it; the header says so, and the member does not suit a half export.
+  std::vector<double> half_overflow;
 };
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts);
