@@ -793,9 +793,9 @@ void writeVulkan(std::ostringstream& md, const TableResult& r) {
       }
       const double w =
           c["worst_scaled_ulp"].is_number() ? c["worst_scaled_ulp"].get<double>() : INFINITY;
+      double& worst = c["precision"] == "half" ? worst_h : worst_f;
       if (std::isfinite(w))
-        (c["precision"] == "half" ? worst_h : worst_f) =
-            std::max(c["precision"] == "half" ? worst_h : worst_f, w);
+        worst = std::max(worst, w);
       else
         nonfinite.push_back("#" + std::to_string(m["member"].get<size_t>()) + " " +
                             c["lang"].get<std::string>() + " " + c["precision"].get<std::string>());

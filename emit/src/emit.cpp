@@ -592,14 +592,7 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
   for (const auto& l : opts.header_lines) line(l);
   if (lang == Language::Glsl && opts.precision == Precision::Half)
     line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
-  if (!out.half_overflow.empty()) {
-    std::string cs;
-    for (size_t i = 0; i < out.half_overflow.size(); ++i)
-      cs += (i ? ", " : "") + formatFloat(static_cast<float>(out.half_overflow[i]));
-    line("Warning: constant" + std::string(out.half_overflow.size() > 1 ? "s " : " ") + cs +
-         " beyond binary16's range (65504): infinite in half, so this member does not suit a "
-         "half export (use float)");
-  }
+  if (const std::string w = halfOverflowWarning(out); !w.empty()) line("Warning: " + w);
   if (lang == Language::Cpp && opts.exact_math)
     line(
         "Exact math: bit-identical to the lgp float32 interpreter (compile with "
@@ -608,6 +601,16 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
 }
 
 }  // namespace
+
+std::string halfOverflowWarning(const Emitted& e) {
+  if (e.half_overflow.empty()) return "";
+  std::string cs;
+  for (size_t i = 0; i < e.half_overflow.size(); ++i)
+    cs += (i ? ", " : "") + formatFloat(static_cast<float>(e.half_overflow[i]));
+  return "constant" + std::string(e.half_overflow.size() > 1 ? "s " : " ") + cs +
+         " beyond binary16's range (" + formatFloat(kHalfMax) +
+         "): infinite in half, so this member does not suit a half export (use float)";
+}
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts) {
   if (Status s = opts.validate(lang); !s) return s;

@@ -260,11 +260,8 @@ int emitMain(int argc, char** argv) {
   auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, *eo)
                                     : lgp::emit::emitMeasured(*in, *lang, *eo);
   if (!e) return fail(e.error());
-  if (!e->half_overflow.empty())
-    std::fprintf(stderr,
-                 "warning: member %zu has %zu constant(s) beyond binary16's range (65504, the "
-                 "first %g): infinite in half; export it in float\n",
-                 *member, e->half_overflow.size(), e->half_overflow[0]);
+  if (const std::string w = lgp::emit::halfOverflowWarning(*e); !w.empty())
+    std::fprintf(stderr, "warning: member %zu: %s\n", *member, w.c_str());
   if (auto st = writeCode(args, e->code); !st) return fail(st.message());
   if (args.count("verify"))
     return verifyVulkan(*in, **table, *member, args["verify-ulp"].as<double>());

@@ -70,10 +70,10 @@ TEST_F(QualityQuick, ReportHasEverySectionForEveryTable) {
   // rows are finite (a check where they do not is listed after "Worst:").
   const std::regex worst(
       R"(Worst: [0-9.e+-]+ ulps \(float\), [0-9.e+-]+ binary16 ulps \(half\)\.)");
+  const std::string heading = "### In a Vulkan driver", not_run = heading + "\n\nNot run: ";
   size_t sections = 0, lines = 0;
-  for (size_t p = md.find("### In a Vulkan driver"); p != std::string::npos;
-       p = md.find("### In a Vulkan driver", p + 1))
-    sections += md.compare(p, 33, "### In a Vulkan driver\n\nNot run: ") != 0;
+  for (size_t p = md.find(heading); p != std::string::npos; p = md.find(heading, p + 1))
+    sections += md.compare(p, not_run.size(), not_run) != 0;
   for (auto it = std::sregex_iterator(md.begin(), md.end(), worst); it != std::sregex_iterator();
        ++it)
     ++lines;

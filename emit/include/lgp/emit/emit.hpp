@@ -101,6 +101,10 @@ struct Emitted {
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts);
 
+// The warning about `half_overflow` that the header carries and `lgp emit` prints ("" when
+// there is none).
+std::string halfOverflowWarning(const Emitted& e);
+
 // A program fitted on `t`: its input and output names and domain (no transforms, no metrics).
 EmitInput emitInputForTable(const Program& p, const Table& t);
 
