@@ -31,7 +31,7 @@ double reflWeight(const Frame& f, double ch, double sh, double phi) {
 double transWeight(const Frame& f, double ch, double sh, double phi) {
   const double vh = f.sv * sh * std::cos(phi) + f.cv * ch;
   if (vh <= 0.0 || ch <= 0.0) return 0.0;
-  const double ct2 = 1.0 - (1.0 - vh * vh) / (f.eta * f.eta);
+  const double ct2 = cosTransmitted2(vh, f.eta);
   if (ct2 <= 0.0) return 0.0;  // total internal reflection (not reached for eta >= 1)
   const double nlt = f.cv / f.eta + (std::sqrt(ct2) - vh / f.eta) * ch;  // -(n.l_t)
   if (nlt <= 0.0) return 0.0;

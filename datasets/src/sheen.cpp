@@ -23,7 +23,7 @@ double sheenCos(double lx, double ly, double lz, double sv, double mu, double al
   const double len2 = hor + hz * hz;
   if (!(len2 > 0.0)) return 0.0;  // l = -v: h undefined, a point of measure zero
   const double den = 4.0 * (lz + mu - lz * mu);
-  return charlieD(hor / len2, alpha) * lz / den;
+  return charlieDFromCos2(hz * hz / len2, alpha) * lz / den;
 }
 
 // Breakpoints from `to` at s 2^k (k = -2, -1, ...) inside [lo, hi], either side.
@@ -36,9 +36,16 @@ void graded(std::vector<double>& cuts, double to, double s, double lo, double hi
   }
 }
 
+// The lobe's scale next to the horizon is min(alpha, mu), never below 2^-30 sqrt(alpha): a
+// sharp lobe is sqrt(alpha) wide in theta_l when mu is smaller than that, and the 60 graded
+// breakpoints must reach it. theta_l = theta_v (with phi_l = pi, a box edge) is the mirror
+// direction, where h = n and D ~ theta_h^(1/alpha) has a kink (1 <= 1/alpha < 2) or a
+// singular higher derivative: a breakpoint there keeps the product rules converging fast.
 std::vector<Box<2>> sheenBoxes(double mu, double alpha) {
-  const double edge = mu > 0.0 ? std::min(alpha, mu) : alpha;
+  const double edge =
+      std::max(mu > 0.0 ? std::min(alpha, mu) : alpha, std::ldexp(std::sqrt(alpha), -30));
   std::vector<double> th = {0.0, 0.5 * kPi}, ph = {0.0, kPi};
+  if (const double tv = std::acos(mu); tv > 0.0 && tv < 0.5 * kPi) th.push_back(tv);
   graded(th, 0.5 * kPi, edge, 0.0, 0.5 * kPi);
   graded(ph, 0.0, edge, 0.0, kPi);
   graded(ph, kPi, edge, 0.0, kPi);
@@ -54,10 +61,30 @@ std::vector<Box<2>> sheenBoxes(double mu, double alpha) {
 }
 }  // namespace
 
-double charlieD(double sin2h, double alpha) {
+double charlieDFromCos2(double cos2h, double alpha) {
   const double inv = 1.0 / alpha;
-  const double s = sin2h > 0.0 ? std::exp(0.5 * inv * std::log(sin2h)) : 0.0;
+  const double s = cos2h < 1.0 ? std::exp(0.5 * inv * std::log1p(-cos2h)) : 0.0;
   return (2.0 + inv) * s / (2.0 * kPi);
+}
+
+double sheenAtGrazing(double alpha) {
+  // W(n) = (sqrt(pi) / 2) G(x) / G(x + 1/2), x = (n + 1) / 2, n = 1/alpha + 2. For large x
+  // the difference of lgammas cancels: the asymptotic series of log(G(x) / G(x + 1/2)) instead
+  // (terms to x^-7; the next is below 1e-15 for x >= 50). In logs throughout, so that 1/alpha
+  // may overflow (a subnormal alpha) while E ~ 1 / sqrt(2 pi alpha) does not.
+  const double log_x = std::log1p(3.0 * alpha) - std::log(2.0 * alpha);  // x = (1 + 3a) / 2a
+  double log_ratio;
+  if (log_x < std::log(50.0)) {
+    const double x = std::exp(log_x);
+    log_ratio = std::lgamma(x) - std::lgamma(x + 0.5);
+  } else {
+    const double t = 2.0 * alpha / (1.0 + 3.0 * alpha), t2 = t * t;
+    log_ratio = -0.5 * log_x +
+                t * (1.0 / 8 + t2 * (-1.0 / 192 + t2 * (1.0 / 640 + t2 * (-17.0 / 14336))));
+  }
+  // E = (2 + 1/alpha) W / pi, 2 + 1/alpha = (1 + 2 alpha) / alpha.
+  return std::exp(std::log1p(2.0 * alpha) - std::log(alpha) + std::log(0.5 / std::sqrt(kPi)) +
+                  log_ratio);
 }
 
 SheenValue sheenPoint(double mu, double alpha, const IntegratorOptions& opt, Counters* counters) {
@@ -65,6 +92,11 @@ SheenValue sheenPoint(double mu, double alpha, const IntegratorOptions& opt, Cou
   mu = std::clamp(mu, 0.0, 1.0);
   if (alpha <= 0.0) {  // all microfacets at the horizon: nothing reaches n.l > 0 for mu > 0
     out.E = mu > 0.0 ? 0.0 : std::numeric_limits<double>::infinity();
+    return out;
+  }
+  if (mu == 0.0) {  // the closed form, exact where quadrature misses a lobe sqrt(alpha) wide
+    out.E = sheenAtGrazing(alpha);
+    out.error = 1e-13 * out.E;
     return out;
   }
   const double sv = std::sqrt(std::max(0.0, 1.0 - mu * mu));

@@ -33,6 +33,14 @@ TEST(Dielectric, FresnelClosedValues) {
                 1e-15);
   }
   EXPECT_NEAR(fresnelDielectric(0.3, 1.0), 0.0, 1e-30);
+  // Hardening round 4, F8: eta = 1 is no interface, F = 0 down to grazing; 1 - (1 - mu^2) / 1
+  // cancelled to 0 below mu ~ 1e-8 and read as total internal reflection (F = 1).
+  for (double mu : {0.0, 1e-300, 1e-12, 1e-9, 5e-9, 1e-8, 1e-4})
+    EXPECT_EQ(fresnelDielectric(mu, 1.0), 0.0) << mu;
+  // Next to eta = 1 total internal reflection starts at mu = sqrt(1 - eta^2) (4.5e-8 for
+  // eta = 1 - 1e-15).
+  EXPECT_LT(fresnelDielectric(5e-8, 1.0 - 1e-15), 1.0);
+  EXPECT_EQ(fresnelDielectric(4e-8, 1.0 - 1e-15), 1.0);
   // eta < 1: total internal reflection below the critical cosine sqrt(1 - eta^2)
   EXPECT_EQ(fresnelDielectric(0.5, 0.8), 1.0);
   EXPECT_LT(fresnelDielectric(0.7, 0.8), 1.0);

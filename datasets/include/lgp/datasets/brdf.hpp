@@ -95,13 +95,23 @@ inline double schlickWeight(double vh) {
   return m2 * m2 * m;
 }
 
+// cos^2 of the refracted angle for light at cosine c entering relative index eta:
+// 1 - (1 - c^2) / eta^2, formed as ((eta - 1)(eta + 1) + c^2) / eta^2 so that near eta = 1
+// a grazing c (c^2 below double's epsilon) is not cancelled away and read as total internal
+// reflection. <= 0: total internal reflection.
+inline double cosTransmitted2(double c, double eta) {
+  return ((eta - 1.0) * (eta + 1.0) + c * c) / (eta * eta);
+}
+
 // Exact unpolarised Fresnel reflectance of a smooth dielectric interface (Born and Wolf 1999),
 // for light arriving at cosine c >= 0 to the interface normal from the side of index 1 into
 // relative index eta = n_inside / n_outside (eta < 1: the denser medium is outside; total
-// internal reflection gives 1). F = (r_s^2 + r_p^2) / 2 with cos_t = sqrt(1 - (1 - c^2) / eta^2).
+// internal reflection gives 1). F = (r_s^2 + r_p^2) / 2 with cos_t = sqrt(cosTransmitted2).
+// eta = 1 is no interface: F = 0 at every c, grazing included.
 inline double fresnelDielectric(double c, double eta) {
+  if (eta == 1.0) return 0.0;
   c = std::clamp(c, 0.0, 1.0);
-  const double ct2 = 1.0 - (1.0 - c * c) / (eta * eta);
+  const double ct2 = cosTransmitted2(c, eta);
   if (ct2 <= 0.0) return 1.0;
   const double ct = std::sqrt(ct2);
   const double rs = (c - eta * ct) / (c + eta * ct);

@@ -12,7 +12,8 @@
 // alpha = r). The visibility is not a masking function: E can exceed 1 at grazing view, and
 // E(0, alpha) = (2 + 1/alpha) W(1/alpha + 2) / pi with W(n) = integral_0^{pi/2} sin^n grows
 // like alpha^(-1/2). Closed forms used as checks: E(1, alpha) = 2^(-1/(2 alpha)) / (4 + 1/alpha)
-// and that E(0, alpha). alpha = 0 is the limit E = 0 (mu > 0).
+// and that E(0, alpha), which sheenPoint returns at mu = 0. alpha = 0 is the limit E = 0
+// (mu > 0).
 //
 // Computation: over the light direction l = (theta_l, phi_l), theta_l in [0, pi/2] and
 // phi_l in [0, pi] (mirror symmetry doubles it), where the integrand is smooth; for a sharp
@@ -32,8 +33,13 @@ struct SheenValue {
   bool converged = true;
 };
 
-// The Charlie distribution D(h) from sin^2(theta_h).
-double charlieD(double sin2h, double alpha);
+// The Charlie distribution D(h) from cos^2(theta_h): sin^(1/alpha) as exp(log1p(-cos^2) /
+// (2 alpha)), exact for a sharp lobe, where sin^2 = 1 - cos^2 rounds to 1 long before
+// sin^(1/alpha) is 1.
+double charlieDFromCos2(double cos2h, double alpha);
+// E(0, alpha) = (2 + 1/alpha) W(1/alpha + 2) / pi, every alpha > 0 (grows like
+// 1 / sqrt(2 pi alpha)): what sheenPoint returns at mu = 0.
+double sheenAtGrazing(double alpha);
 
 SheenValue sheenPoint(double mu, double alpha, const IntegratorOptions& opt,
                       Counters* counters = nullptr);
