@@ -6,10 +6,12 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <numbers>
 
+#include "lgp/core/program.hpp"
 #include "lgp/datasets/dfg.hpp"
 #include "lgp/datasets/dielectric.hpp"
 #include "lgp/datasets/diffuse_albedo.hpp"
@@ -75,32 +77,53 @@ Plan makePlan(const Scene& s) {
   return p;
 }
 
-// One value per grid point of one axis, integrated in parallel before the rows.
+// The shared state of one parallel pass: per-thread counters and convergence, and the stop
+// request (GenerateOptions::stop, polled before each integral; once seen, the remaining
+// iterations are skipped).
+struct Pass {
+  int nt;
+  std::vector<Counters> counters;
+  std::vector<char> conv;
+  const std::function<bool()>& stop;
+  std::atomic<bool> stopped{false};
+
+  Pass(int threads, const std::function<bool()>& s)
+      : nt(threads), counters(threads), conv(threads, 1), stop(s) {}
+  bool stopping() {
+    if (stopped.load(std::memory_order_relaxed)) return true;
+    if (stop && stop()) stopped.store(true, std::memory_order_relaxed);
+    return stopped.load(std::memory_order_relaxed);
+  }
+};
+
+// One value per grid point of one axis, integrated in parallel before the rows; only at the
+// points `need` marks (all when it is empty).
 struct PerAxis {
   std::vector<double> value, error;
 };
-PerAxis perAxis(const std::vector<double>& xs, int nt, std::vector<char>& conv,
-                std::vector<Counters>& counters,
+PerAxis perAxis(const std::vector<double>& xs, const std::vector<char>& need, Pass& pass,
                 const std::function<void(double, Counters&, double&, double&, bool&)>& f) {
   PerAxis out{std::vector<double>(xs.size()), std::vector<double>(xs.size())};
-#pragma omp parallel for schedule(dynamic) num_threads(nt)
+#pragma omp parallel for schedule(dynamic) num_threads(pass.nt)
   for (long j = 0; j < static_cast<long>(xs.size()); ++j) {
+    if ((!need.empty() && !need[j]) || pass.stopping()) continue;
     const int t = omp_get_thread_num();
     bool ok = true;
-    f(xs[j], counters[t], out.value[j], out.error[j], ok);
-    if (!ok) conv[t] = 0;
+    f(xs[j], pass.counters[t], out.value[j], out.error[j], ok);
+    if (!ok) pass.conv[t] = 0;
   }
   return out;
 }
 
-// Writes row `row` of the outputs.
+// Where the outputs of table row `row` go: slot `slot` of every output's value and error.
 struct RowSink {
-  GeneratedTable& g;
-  size_t row;
+  std::vector<std::vector<double>>& value;
+  std::vector<std::vector<double>>& error;
+  size_t row, slot;
   void put(int k, double v, double e) const {
     if (k < 0) return;
-    g.table.outputs[k][row] = v;
-    g.errors[k][row] = e;
+    value[k][slot] = v;
+    error[k][slot] = e;
   }
 };
 
@@ -225,15 +248,68 @@ Status checkAndSummarize(const Scene& s, GeneratedTable& g, json& max_by) {
     double mx = 0;
     for (size_t row = 0; row < g.table.rows(); ++row) {
       if (!std::isfinite(g.table.outputs[k][row])) {
+        // The shortest form that reads back to the grid's value: it names the point (r =
+        // 5e-324, not 0.000000).
         std::string at;
         for (size_t a = 0; a < s.grid.size(); ++a)
-          at += (a ? ", " : "") + s.grid[a].name + "=" + std::to_string(g.table.inputs[a][row]);
-        return Status::error("generator produced a non-finite " + s.outputs[k] + " at " + at);
+          at += (a ? ", " : "") + s.grid[a].name + "=" + formatDouble(g.table.inputs[a][row]);
+        return Status::error("generator produced a non-finite " + s.outputs[k] + " at " + at +
+                             " (row " + std::to_string(row + 1) + ")");
       }
       mx = std::max(mx, g.errors[k][row]);
     }
     max_by[s.outputs[k]] = mx;
     g.max_error = std::max(g.max_error, mx);
+  }
+  return Status::ok();
+}
+}  // namespace
+
+namespace {
+// Evaluates the table rows `rows` (every row when it is empty) into slots 0, 1, ... of
+// `value` and `error` ([output][slot], sized by the caller); the per-axis integrals run only
+// where those rows need them.
+Status evaluate(const Scene& s, const Plan& p, const std::vector<size_t>& rows,
+                const GenerateOptions& opt, std::vector<std::vector<double>>& value,
+                std::vector<std::vector<double>>& error, Counters& counters, bool& converged) {
+  const size_t n = rows.empty() ? s.rows() : rows.size();
+  auto rowAt = [&](size_t i) { return rows.empty() ? i : rows[i]; };
+  auto axisNeed = [&](int axis) {
+    std::vector<char> need;
+    if (rows.empty() || axis < 0) return need;
+    need.assign(p.count[axis], 0);
+    for (size_t r : rows) need[p.index(r, axis)] = 1;
+    return need;
+  };
+  // Never more threads than the cores this process may use (a request for thousands would
+  // exhaust the address space or the thread limit, which ends the process in OpenMP).
+  const int cores = std::max(1, omp_get_num_procs());
+  Pass pass(std::min(opt.threads > 0 ? opt.threads : omp_get_max_threads(), cores), opt.stop);
+  const Material& m = s.material;
+  PerAxis eavg, favg;
+  if (p.eavg)
+    eavg = perAxis(s.axis("r")->values, axisNeed(p.ax_r), pass,
+                   [&](double r, Counters& c, double& v, double& e, bool& ok) {
+                     const EavgValue x = eAvgFor(m.alpha(r), m.visibility, p.io, p.ms_lobe >= 0, c);
+                     v = x.value, e = x.error, ok = x.converged;
+                   });
+  if (p.F_avg >= 0)
+    favg = perAxis(s.axis("eta")->values, axisNeed(p.ax_eta), pass,
+                   [&](double eta, Counters& c, double& v, double& e, bool& ok) {
+                     const FavgValue x = fresnelAverageDielectric(eta, p.io, &c);
+                     v = x.value, e = x.error, ok = x.converged;
+                   });
+#pragma omp parallel for schedule(dynamic) num_threads(pass.nt)
+  for (long i = 0; i < static_cast<long>(n); ++i) {
+    if (pass.stopping()) continue;
+    const int t = omp_get_thread_num();
+    const RowSink out{value, error, rowAt(static_cast<size_t>(i)), static_cast<size_t>(i)};
+    if (!evalRow(s, p, eavg, favg, out, pass.counters[t])) pass.conv[t] = 0;
+  }
+  if (pass.stopped.load()) return Status::error(kGenerationStopped);
+  for (int t = 0; t < pass.nt; ++t) {
+    counters.add(pass.counters[t]);
+    converged = converged && pass.conv[t];
   }
   return Status::ok();
 }
@@ -253,37 +329,30 @@ Expected<GeneratedTable> generate(const Scene& s, const GenerateOptions& opt) {
   for (size_t row = 0; row < rows; ++row)
     for (size_t a = 0; a < s.grid.size(); ++a)
       g.table.inputs[a][row] = s.grid[a].values[p.index(row, static_cast<int>(a))];
-
-  const int nt = opt.threads > 0 ? opt.threads : omp_get_max_threads();
-  std::vector<Counters> counters(nt);
-  std::vector<char> conv(nt, 1);
-  const Material& m = s.material;
-  PerAxis eavg, favg;
-  if (p.eavg)
-    eavg = perAxis(s.axis("r")->values, nt, conv, counters,
-                   [&](double r, Counters& c, double& v, double& e, bool& ok) {
-                     const EavgValue x = eAvgFor(m.alpha(r), m.visibility, p.io, p.ms_lobe >= 0, c);
-                     v = x.value, e = x.error, ok = x.converged;
-                   });
-  if (p.F_avg >= 0)
-    favg = perAxis(s.axis("eta")->values, nt, conv, counters,
-                   [&](double eta, Counters& c, double& v, double& e, bool& ok) {
-                     const FavgValue x = fresnelAverageDielectric(eta, p.io, &c);
-                     v = x.value, e = x.error, ok = x.converged;
-                   });
-#pragma omp parallel for schedule(dynamic) num_threads(nt)
-  for (long row = 0; row < static_cast<long>(rows); ++row) {
-    const int t = omp_get_thread_num();
-    if (!evalRow(s, p, eavg, favg, RowSink{g, static_cast<size_t>(row)}, counters[t])) conv[t] = 0;
-  }
-  for (int t = 0; t < nt; ++t) {
-    g.counters.add(counters[t]);
-    g.converged = g.converged && conv[t];
-  }
+  if (auto st = evaluate(s, p, {}, opt, g.table.outputs, g.errors, g.counters, g.converged); !st)
+    return st;
   json max_by;
   if (auto st = checkAndSummarize(s, g, max_by); !st) return st;
   g.table.meta = detail::tableMeta(s, p.io, g, max_by);
   return g;
+}
+
+Expected<RowValues> generateRows(const Scene& s, const std::vector<size_t>& rows,
+                                 const GenerateOptions& opt) {
+  if (s.grid.empty() || s.grid.size() > 3 || s.outputs.empty())
+    return Status::error("scene: needs one to three grid inputs and at least one output");
+  for (size_t r : rows)
+    if (r >= s.rows()) return Status::error("row " + std::to_string(r) + " is not in the scene");
+  if (rows.empty()) return RowValues{};
+  const Plan p = makePlan(s);
+  RowValues out;
+  out.value.assign(s.outputs.size(), std::vector<double>(rows.size()));
+  out.error.assign(s.outputs.size(), std::vector<double>(rows.size()));
+  Counters counters;
+  bool converged = true;
+  if (auto st = evaluate(s, p, rows, opt, out.value, out.error, counters, converged); !st)
+    return st;
+  return out;
 }
 
 }  // namespace lgp::datasets

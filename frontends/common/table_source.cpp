@@ -1,5 +1,7 @@
 #include "table_source.hpp"
 
+#include <algorithm>
+
 #include "lgp/eval/objectives.hpp"
 #include "lgp/io/table_file.hpp"
 
@@ -11,37 +13,89 @@
 namespace lgp::cli {
 
 namespace {
-Expected<Table> loadTable(const RunConfig& cfg) {
+// A cached table that the checks below refuse (loadRunTable regenerates it once).
+constexpr const char* kStaleCacheEntry = "the cached table is not usable";
+
+// Before the search: values the float32 evaluation cannot hold would leave every error NaN
+// or infinite, and the front empty.
+Status checkNumerics(const RunConfig& cfg, const Table& t) {
+  if (auto s = checkErrorNumerics(t, cfg.errorConfig(t.output_names)); !s)
+    return Status::error((cfg.data.scene.empty() ? "/data/path" : "/data/scene") +
+                         std::string(": ") + s.message());
+  return Status::ok();
+}
+
+#ifdef LGP_HAVE_DATASETS
+namespace ds = lgp::datasets;
+
+// The columns the run selects are the scene's (the messages of selectColumns), before
+// anything is generated.
+Status checkSceneColumns(const ds::Scene& scene, const DataConfig& d, const std::string& origin) {
+  const std::vector<std::string> inputs = scene.inputNames();
+  auto has = [&](const std::string& n) {
+    return std::find(inputs.begin(), inputs.end(), n) != inputs.end() || scene.wants(n);
+  };
+  for (const auto& n : d.inputs)
+    if (!has(n)) return Status::error(origin + ": no column named '" + n + "' (input)");
+  for (const auto& n : d.outputs)
+    if (!has(n)) return Status::error(origin + ": no column named '" + n + "' (output)");
+  if (!d.weights.empty() && !has(d.weights))
+    return Status::error(origin + ": no column named '" + d.weights + "' (weights)");
+  return Status::ok();
+}
+
+// The scene's table (through the cache unless data.cache_dir is "-"), its columns selected
+// and its values checked; a cached table the checks refuse is regenerated once.
+Expected<Table> sceneTable(const RunConfig& cfg, const TableLoadOptions& opt) {
+  const std::filesystem::path path = cfg.base_dir / cfg.data.scene;
+  auto scene = ds::loadScene(path);
+  if (!scene) return Status::error("/data/scene: " + scene.error());
+  if (auto s = checkSceneColumns(*scene, cfg.data, path.string()); !s)
+    return Status::error("/data/scene: " + s.message());
+  ds::GenerateOptions gopt;
+  gopt.stop = opt.stop;
+  const bool cached = cfg.data.cache_dir != kNoCache;
+  const std::filesystem::path dir = cfg.data.cache_dir.empty() ? ds::defaultCacheDir()
+                                    : cached ? cfg.base_dir / cfg.data.cache_dir
+                                             : std::filesystem::path();
+  auto load = [&](bool refresh) -> Expected<Table> {
+    Expected<ds::GeneratedTable> g = Status::error("not generated");
+    bool hit = false;
+    if (cached) {
+      auto c = ds::generateCached(*scene, dir, gopt, refresh);
+      if (!c) return Status::error("/data/scene: " + path.string() + ": " + c.error());
+      hit = c->hit;
+      g = std::move(c->table);
+    } else {
+      g = ds::generate(*scene, gopt);
+      if (!g) return Status::error("/data/scene: " + path.string() + ": " + g.error());
+    }
+    auto t = selectColumns(ds::toRawTable(*g), cfg.data.inputs, cfg.data.outputs,
+                           cfg.data.weights, path.string());
+    Status s = t ? checkNumerics(cfg, *t) : t.status();
+    if (!s && hit) return Status::error(kStaleCacheEntry);
+    if (!s) return s;
+    return t;
+  };
+  auto t = load(false);
+  if (!t && t.error() == kStaleCacheEntry) return load(true);
+  return t;
+}
+#endif
+}  // namespace
+
+Expected<Table> loadRunTable(const RunConfig& cfg, const TableLoadOptions& opt) {
   if (!cfg.data.scene.empty()) {
 #ifdef LGP_HAVE_DATASETS
-    // Generate (or fetch from the cache) the scene's table, then select columns exactly as
-    // for a file table.
-    namespace ds = lgp::datasets;
-    const std::filesystem::path path = cfg.base_dir / cfg.data.scene;
-    auto scene = ds::loadScene(path);
-    if (!scene) return Status::error("/data/scene: " + scene.error());
-    const std::filesystem::path dir =
-        cfg.data.cache_dir.empty() ? ds::defaultCacheDir() : cfg.base_dir / cfg.data.cache_dir;
-    auto gen = ds::generateCached(*scene, dir);
-    if (!gen) return Status::error("/data/scene: " + path.string() + ": " + gen.error());
-    return selectColumns(ds::toRawTable(gen->table), cfg.data.inputs, cfg.data.outputs,
-                         cfg.data.weights, path.string());
+    return sceneTable(cfg, opt);
 #else
+    (void)opt;
     return Status::error("/data/scene: generated tables are not available in this build");
 #endif
   }
-  return loadTableFile(cfg.data, cfg.base_dir);
-}
-}  // namespace
-
-Expected<Table> loadRunTable(const RunConfig& cfg) {
-  auto t = loadTable(cfg);
+  auto t = loadTableFile(cfg.data, cfg.base_dir);
   if (!t) return t;
-  // Before the search: values the float32 evaluation cannot hold would leave every error
-  // NaN or infinite, and the front empty.
-  if (auto s = checkErrorNumerics(*t, cfg.errorConfig(t->output_names)); !s)
-    return Status::error((cfg.data.scene.empty() ? "/data/path" : "/data/scene") +
-                         std::string(": ") + s.message());
+  if (auto s = checkNumerics(cfg, *t); !s) return s;
   return t;
 }
 

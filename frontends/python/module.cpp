@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "lgp/config/config.hpp"
@@ -145,6 +147,36 @@ class PythonTicker {
   std::chrono::steady_clock::time_point last_check_{}, last_progress_{};
 };
 
+// Ctrl-C while a scene's table is generated without the GIL: GenerateOptions::stop runs on
+// OpenMP's threads; on the calling thread (the team's master, Python's main thread) it checks
+// Python's signals under the GIL at most every 50 ms. A raised exception ends the generation
+// and is raised again once the GIL is back (rethrow()).
+class GenerationInterrupt {
+ public:
+  bool operator()() {
+    if (raised_.load(std::memory_order_relaxed)) return true;
+    if (std::this_thread::get_id() != caller_) return false;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_ < std::chrono::milliseconds(50)) return false;
+    last_ = now;
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() == 0) return false;
+    error_ = std::make_unique<py::error_already_set>();
+    raised_.store(true);
+    return true;
+  }
+  // With the GIL held, after the generation: the exception a signal handler raised, if any.
+  void rethrow() {
+    if (error_) throw std::move(*error_);
+  }
+
+ private:
+  const std::thread::id caller_ = std::this_thread::get_id();
+  std::chrono::steady_clock::time_point last_{};
+  std::atomic<bool> raised_{false};
+  std::unique_ptr<py::error_already_set> error_;
+};
+
 // Runs a search. Data: X and y given (the config's data.inputs/outputs name their columns), or
 // the config's own data.path / data.scene. Returns (front JSON text, interrupted).
 py::tuple run(const std::string& config_text, const std::string& base_dir, std::optional<Matrix> x,
@@ -153,7 +185,18 @@ py::tuple run(const std::string& config_text, const std::string& base_dir, std::
   lgp::RunConfig cfg = parseConfig(config_text, base_dir);
   // The run pipeline (run_pipeline.hpp), with arrays as a table source and Python's progress
   // callback and KeyboardInterrupt as the display.
-  lgp::Table table = x ? arrayTable(cfg, *x, *y, w) : orRaise(lgp::cli::loadRunTable(cfg));
+  lgp::Table table = x ? arrayTable(cfg, *x, *y, w) : [&] {
+    GenerationInterrupt interrupt;
+    lgp::cli::TableLoadOptions load;
+    load.stop = [&interrupt] { return interrupt(); };
+    lgp::Expected<lgp::Table> t = lgp::Status::error("not loaded");
+    {
+      py::gil_scoped_release nogil;
+      t = lgp::cli::loadRunTable(cfg, load);
+    }
+    interrupt.rethrow();
+    return orRaise(std::move(t));
+  }();
   auto seeds = orRaise(lgp::cli::prepareRun(cfg, table, false, false));
   const bool two_step = cfg.search.multi_output.mode == lgp::MultiOutputMode::TwoStep;
   PythonTicker ticker(progress, progress_interval);
@@ -363,11 +406,13 @@ py::tuple generate(const std::string& scene_text, const std::string& cache_dir, 
   if (!scene) valueError(scene.error());
   ds::GenerateOptions opt;
   opt.threads = threads;
+  GenerationInterrupt interrupt;
+  opt.stop = [&interrupt] { return interrupt(); };
   lgp::Expected<ds::GeneratedTable> g = lgp::Status::error("not generated");
   std::string note;
   {
     py::gil_scoped_release nogil;
-    if (cache_dir == "-") {
+    if (cache_dir == lgp::kNoCache) {
       g = ds::generate(*scene, opt);
     } else {
       auto c = ds::generateCached(
@@ -380,6 +425,7 @@ py::tuple generate(const std::string& scene_text, const std::string& cache_dir, 
       }
     }
   }
+  interrupt.rethrow();
   if (!g) valueError("scene: " + g.error());
   const lgp::Table& t = g->table;
   return py::make_tuple(t.input_names, t.output_names, toMatrix(t.inputs, t.rows()),

@@ -13,6 +13,7 @@
 
 #include "lgp/config/config.hpp"
 #include "lgp/core/table.hpp"
+#include "lgp/datasets/generate.hpp"
 #include "table_source.hpp"
 
 namespace fs = std::filesystem;
@@ -82,7 +83,7 @@ TEST(DataCli, WritesLoadableTablesPlotsAndUsesTheCache) {
   EXPECT_EQ(t->output_names, (std::vector<std::string>{"A", "B"}));
   EXPECT_EQ(t->rows(), 30u);
   EXPECT_TRUE(t->validate()) << t->validate().message();
-  EXPECT_EQ(raw->meta["generator_version"], "lgp-datasets/1.1.0");
+  EXPECT_EQ(raw->meta["generator_version"], lgp::datasets::kGeneratorVersion);
   EXPECT_TRUE(fs::exists(d / "t_A_heatmap.svg"));
   EXPECT_TRUE(fs::exists(d / "t_B_slices.svg"));
 
@@ -123,5 +124,57 @@ TEST(DataCli, RunConfigMayNameAScene) {
   ASSERT_FALSE(t);
   EXPECT_NE(t.error().find("/data/scene: "), std::string::npos) << t.error();
   EXPECT_NE(t.error().find("bad.json: /light/type"), std::string::npos) << t.error();
+  // A column the scene does not make is refused before anything is generated.
+  j["data"]["scene"] = "scene.json";
+  j["data"]["outputs"] = {"nope"};
+  j["data"]["cache_dir"] = "cache2";
+  cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  t = lgp::cli::loadRunTable(*cfg);
+  ASSERT_FALSE(t);
+  EXPECT_NE(t.error().find("no column named 'nope' (output)"), std::string::npos) << t.error();
+  EXPECT_FALSE(fs::exists(d / "cache2"));
+  // data.cache_dir "-": no cache read or written (it created a directory named "-").
+  j["data"]["outputs"] = {"B"};
+  j["data"]["cache_dir"] = lgp::kNoCache;
+  cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  ASSERT_TRUE(lgp::cli::loadRunTable(*cfg));
+  EXPECT_FALSE(fs::exists(d / "-"));
+  fs::remove_all(d);
+}
+
+// Hardening round 4, F10: a checksum-valid entry that the run's checks refuse (here a value
+// beyond float32, in a row the spot check may not draw) failed every run of its scene, was
+// never regenerated, and the message blamed the scene file. It is regenerated once now.
+TEST(DataCli, UnusableCacheEntryIsRegenerated) {
+  const fs::path d = freshDir("unusable");
+  write(d / "scene.json", R"({"outputs": ["E"], "grid": {"mu": {"count": 40}, "r": {"count": 40}},
+    "accuracy": {"abs_error": 1e-5}})");
+  nlohmann::json j = {{"data", {{"scene", "scene.json"}, {"cache_dir", "cache"}}}};
+  auto cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  auto truth = lgp::cli::loadRunTable(*cfg);
+  ASSERT_TRUE(truth) << truth.error();
+  fs::path entry;
+  for (const auto& e : fs::directory_iterator(d / "cache")) entry = e.path();
+  std::ifstream in(entry, std::ios::binary);
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  in.close();
+  nlohmann::json payload = nlohmann::json::parse(bytes.substr(bytes.find('\n') + 1));
+  payload["columns"]["E"][777] = 1e39;
+  const std::string text = payload.dump();
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
+  char sum[17];
+  std::snprintf(sum, sizeof sum, "%016llx", static_cast<unsigned long long>(h));
+  std::ofstream(entry, std::ios::binary | std::ios::trunc)
+      << "lgp-cache/1 " << sum << " " << text.size() << "\n" << text;
+  auto t = lgp::cli::loadRunTable(*cfg);
+  ASSERT_TRUE(t) << t.error();
+  EXPECT_EQ(t->outputs, truth->outputs);
+  auto again = lgp::cli::loadRunTable(*cfg);  // the entry was rewritten
+  ASSERT_TRUE(again) << again.error();
+  EXPECT_EQ(again->outputs, truth->outputs);
   fs::remove_all(d);
 }

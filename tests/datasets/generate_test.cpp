@@ -1,8 +1,11 @@
 #include "lgp/datasets/generate.hpp"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
+#include <atomic>
 #include <cmath>
+#include <functional>
 #include <fstream>
 #include <sstream>
 
@@ -188,6 +191,146 @@ TEST(Generate, CacheHitsAndRejectsCorruptFiles) {
   ASSERT_TRUE(fifth) << fifth.error();
   EXPECT_FALSE(fifth->hit);
   fs::remove_all(dir);
+}
+
+namespace {
+// Rewrites a cache entry's payload with `edit` and a recomputed checksum: what anyone who can
+// write the file can do.
+void forgeEntry(const fs::path& file, const std::function<void(json&)>& edit) {
+  std::ifstream in(file, std::ios::binary);
+  std::string bytes(std::istreambuf_iterator<char>(in), {});
+  json j = json::parse(bytes.substr(bytes.find('\n') + 1));
+  edit(j);
+  const std::string payload = j.dump();
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (unsigned char c : payload) h = (h ^ c) * 0x100000001b3ull;
+  char sum[17];
+  std::snprintf(sum, sizeof sum, "%016llx", static_cast<unsigned long long>(h));
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << "lgp-cache/1 " << sum << " " << payload.size() << "\n" << payload;
+}
+}  // namespace
+
+// Hardening round 4, F1: a checksum is no signature. An entry rewritten with a recomputed
+// checksum (F_avg = 7 everywhere), or another scene's entry under this scene's key, was served
+// as the scene's integral; now each is recognised, regenerated and rewritten.
+TEST(Generate, CacheEntriesAreCheckedAgainstTheirScene) {
+  const fs::path dir = tempDir("poison");
+  fs::permissions(dir, fs::perms::owner_all, fs::perm_options::replace);
+  const Scene s = scene(R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["F_avg"], "grid": {"eta": {"count": 6, "range": [1, 2.5]}}})");
+  auto first = generateCached(s, dir);
+  ASSERT_TRUE(first) << first.error();
+  const auto truth = first->table.table.outputs;
+  forgeEntry(first->file, [](json& j) {
+    for (auto& v : j["columns"]["F_avg"]) v = 7.0;
+  });
+  auto poisoned = generateCached(s, dir);
+  ASSERT_TRUE(poisoned) << poisoned.error();
+  EXPECT_FALSE(poisoned->hit);
+  EXPECT_NE(poisoned->note.find("not this scene's table"), std::string::npos) << poisoned->note;
+  EXPECT_EQ(poisoned->table.table.outputs, truth);
+  EXPECT_TRUE(generateCached(s, dir)->hit);  // rewritten with the truth
+  // One row poisoned among 6: the spot check recomputes every row of a table this small.
+  forgeEntry(first->file, [](json& j) { j["columns"]["F_avg"][3] = 0.5; });
+  EXPECT_FALSE(generateCached(s, dir)->hit);
+  // Another scene's entry (more eta points) under this scene's key.
+  const Scene other = scene(R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["F_avg"], "grid": {"eta": {"count": 7, "range": [1, 2.5]}}})");
+  auto o = generateCached(other, dir);
+  ASSERT_TRUE(o) << o.error();
+  fs::copy_file(o->file, first->file, fs::copy_options::overwrite_existing);
+  auto swapped = generateCached(s, dir);
+  ASSERT_TRUE(swapped) << swapped.error();
+  EXPECT_FALSE(swapped->hit);
+  EXPECT_NE(swapped->note.find("made for another scene"), std::string::npos) << swapped->note;
+  // Its recorded scene edited to match, the columns still the other grid's.
+  forgeEntry(first->file, [&](json& j) {
+    j["columns"] = toTableJson(o->table)["columns"];
+    j["errors"] = toTableJson(o->table)["errors"];
+  });
+  auto grid = generateCached(s, dir);
+  ASSERT_TRUE(grid) << grid.error();
+  EXPECT_FALSE(grid->hit);
+  EXPECT_NE(grid->note.find("columns are not the scene's"), std::string::npos) << grid->note;
+  EXPECT_EQ(grid->table.table.outputs, truth);
+  // refresh: regenerated whatever the entry holds.
+  auto refreshed = generateCached(s, dir, {}, true);
+  ASSERT_TRUE(refreshed) << refreshed.error();
+  EXPECT_FALSE(refreshed->hit);
+  fs::remove_all(dir);
+}
+
+// A cache others can write is neither read nor written: an entry writable by the group, or a
+// directory writable by others without the sticky bit.
+TEST(Generate, CacheOthersCanWriteIsNotUsed) {
+  const fs::path dir = tempDir("shared");
+  fs::permissions(dir, fs::perms::owner_all, fs::perm_options::replace);
+  const Scene s = scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 3}, "r": {"count": 3}}})");
+  auto first = generateCached(s, dir);
+  ASSERT_TRUE(first) << first.error();
+  fs::permissions(first->file, fs::perms::group_write, fs::perm_options::add);
+  auto g = generateCached(s, dir);
+  ASSERT_TRUE(g) << g.error();
+  EXPECT_FALSE(g->hit);
+  EXPECT_NE(g->note.find("writable by other users"), std::string::npos) << g->note;
+  fs::remove(first->file);
+  fs::permissions(dir, fs::perms::others_write, fs::perm_options::add);
+  auto w = generateCached(s, dir);
+  ASSERT_TRUE(w) << w.error();
+  EXPECT_FALSE(fs::exists(first->file));  // not written there
+  EXPECT_NE(w->note.find("directory is writable by other users"), std::string::npos) << w->note;
+  fs::permissions(dir, fs::perms::sticky_bit, fs::perm_options::add);  // as /tmp: trusted
+  ASSERT_TRUE(generateCached(s, dir));
+  EXPECT_TRUE(generateCached(s, dir)->hit);
+  fs::remove_all(dir);
+}
+
+// Hardening round 4, F2: generation polls GenerateOptions::stop and ends with
+// kGenerationStopped instead of running every row.
+TEST(Generate, StopEndsGeneration) {
+  const Scene s = scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 64}, "r": {"count": 64}}})");
+  std::atomic<int> polls{0};
+  GenerateOptions o;
+  o.threads = 2;
+  o.stop = [&] { return ++polls > 10; };
+  auto g = generate(s, o);
+  ASSERT_FALSE(g);
+  EXPECT_EQ(g.error(), kGenerationStopped);
+  EXPECT_LT(polls.load(), 64 * 64);  // polled at most once per row after the request
+  auto c = generateCached(s, tempDir("stop"), o);
+  ASSERT_FALSE(c);
+  EXPECT_EQ(c.error(), kGenerationStopped);
+}
+
+// Hardening round 4, F11: threads are capped at the cores this process may use (3000 under an
+// address-space limit ended the process).
+TEST(Generate, ThreadsAreCappedAtTheCores) {
+  const Scene s = scene(R"({"outputs": ["E"], "grid": {"mu": {"count": 8}, "r": {"count": 8}}})");
+  std::atomic<int> widest{0};
+  GenerateOptions o;
+  o.threads = 3000;
+  o.stop = [&] {
+    int w = widest.load();
+    while (omp_get_num_threads() > w && !widest.compare_exchange_weak(w, omp_get_num_threads())) {
+    }
+    return false;
+  };
+  auto g = generate(s, o);
+  ASSERT_TRUE(g) << g.error();
+  EXPECT_GE(widest.load(), 1);
+  EXPECT_LE(widest.load(), omp_get_num_procs());
+}
+
+// Hardening round 4, F9: a non-finite value names its point as the grid has it (5e-324, not
+// 0.000000).
+TEST(Generate, NonFiniteValueNamesItsPoint) {
+  const Scene s = scene(R"({"material": {"roughness": "linear"}, "outputs": ["E_sheen"],
+    "grid": {"mu": {"values": [5e-324, 0.5]}, "r": {"values": [5e-324, 0.5]}}})");
+  auto g = generate(s);
+  ASSERT_FALSE(g);
+  EXPECT_NE(g.error().find("E_sheen at mu=5e-324, r=5e-324 (row 1)"), std::string::npos)
+      << g.error();
 }
 
 TEST(Generate, PlotsAndCsv) {

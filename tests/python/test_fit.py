@@ -273,6 +273,57 @@ def test_ctrl_c_returns_the_front(tmp_path):
     assert elapsed < 30  # not the 120 s budget
 
 
+@pytest.mark.parametrize("call", ["data", "fit"])
+def test_ctrl_c_stops_a_scene_being_generated(tmp_path, call):
+    # Hardening round 4, F2: a scene's table was generated without the GIL and without a
+    # stop, so Ctrl-C waited for every row (minutes for a large scene). Now KeyboardInterrupt
+    # comes within a fraction of a second of the signal.
+    scene = {"material": {"fresnel": {"model": "dielectric"}}, "outputs": ["E_dielectric"],
+             "grid": {"mu": {"count": 40}, "r": {"count": 40}, "eta": {"count": 40,
+                                                                     "range": [1.1, 2.5]}}}
+    script = tmp_path / "gen.py"
+    script.write_text(textwrap.dedent(f"""
+        import json, sys, time
+        import lgp
+        scene = {scene!r}
+        print("started", flush=True)
+        t0 = time.monotonic()
+        try:
+            if {call!r} == "data":
+                lgp.data(scene, cache_dir="-", threads=1)
+            else:
+                with open(sys.argv[1], "w") as f:
+                    json.dump(scene, f)
+                lgp.fit(scene=sys.argv[1], data={{"cache_dir": "-"}}, generations=1, threads=1)
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted", time.monotonic() - t0)
+    """))
+    p = subprocess.Popen([sys.executable, str(script), str(tmp_path / "scene.json")],
+                         stdout=subprocess.PIPE, text=True, env=os.environ.copy())
+    assert p.stdout.readline().strip() == "started"
+    time.sleep(1.0)
+    t0 = time.monotonic()
+    p.send_signal(2)
+    out, _ = p.communicate(timeout=60)
+    assert out.startswith("interrupted"), out
+    assert time.monotonic() - t0 < 5  # 64,000 rows take minutes
+
+
+def test_cache_dir_dash_means_no_cache_everywhere(tmp_path, monkeypatch):
+    # Hardening round 4, F13: lgp.fit(data={"cache_dir": "-"}) created a directory named "-"
+    # where lgp.data(cache_dir="-") means no cache.
+    monkeypatch.chdir(tmp_path)
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps({"outputs": ["A", "B"],
+                                 "material": {"fresnel": {"model": "schlick", "f90": 1}},
+                                 "grid": {"mu": {"count": 6}, "r": {"count": 6}}}))
+    front = lgp.fit(scene=str(scene), data={"cache_dir": "-"}, generations=2, threads=1,
+                    ops=OPS)
+    assert len(front) > 0
+    assert not (tmp_path / "-").exists()
+
+
 def test_load_front_and_save(tmp_path, grid):
     X, y = grid
     front = lgp.fit(X, y, ops=OPS, generations=10, threads=1)

@@ -36,6 +36,10 @@
 
 namespace lgp {
 
+// data.cache_dir "-": generate the scene's table without reading or writing a cache (as
+// `lgp data --no-cache` and lgp.data(cache_dir="-")).
+inline constexpr const char* kNoCache = "-";
+
 struct DataConfig {
   std::string path;                  // CSV or JSON table; relative to the config file
   std::string scene;                 // or a scene JSON for the datasets/ generators
@@ -43,7 +47,7 @@ struct DataConfig {
   std::vector<std::string> outputs;  // output column names; empty = the file's declared outputs
   std::string weights;               // per-row weight column; empty = file weights or uniform
   std::map<std::string, TargetTransform> transforms;  // fit T(y) for these outputs
-  std::string cache_dir;  // generated-table cache (scene only); empty = default
+  std::string cache_dir;  // generated-table cache (scene only); empty = default, "-" = none
 };
 
 struct ProgramConfig {
