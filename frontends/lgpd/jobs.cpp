@@ -97,6 +97,10 @@ fs::path JobManager::inlineTablePath(const std::string& id) const {
   return cfg_.data_dir / "tables" / (id + ".json");
 }
 
+fs::path JobManager::tableCacheDir() const {
+  return cfg_.data_dir / "cache";
+}
+
 fs::path JobManager::mpiWorkDir(const std::string& id) const {
   return cfg_.data_dir / "mpi" / id;
 }
@@ -151,16 +155,18 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
       data->erase("table");
       (*data)["path"] = inlineTablePath(out.record.id).string();
     } else {
-      for (const char* key : {"path", "scene", "cache_dir"}) {
+      if (data->contains("cache_dir"))
+        return Status::error(
+            "/data/cache_dir: lgpd keeps the tables it generates in its own cache (<data_dir>/"
+            "cache) and writes no file a request names; remove the field");
+      for (const char* key : {"path", "scene"}) {
         auto p = data->find(key);
         if (p == data->end() || !p->is_string() || p->get<std::string>().empty()) continue;
         if (auto why = lgp::controlCharacterReason(p->get<std::string>()); !why.empty())
           return Status::error(std::string("/data/") + key + ": " + why);
         std::string abs = absolutePath(p->get<std::string>(), cfg_.data_base_dir);
-        if (std::string(key) != "cache_dir") {
-          if (auto s = checkDataPath(abs); !s)
-            return Status::error(std::string("/data/") + key + ": " + s.message());
-        }
+        if (auto s = checkDataPath(abs); !s)
+          return Status::error(std::string("/data/") + key + ": " + s.message());
         *p = abs;
       }
     }
@@ -211,6 +217,10 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
 Expected<lgp::RunConfig> JobManager::config(const RunRecord& run) const {
   json j = run.config;
   if (run.inline_table) j["data"]["path"] = inlineTablePath(run.id).string();
+  // lgpd's own cache, whatever the stored config says (a run stored by an older lgpd may
+  // name one).
+  if (j.contains("data") && j["data"].is_object() && j["data"].contains("scene"))
+    j["data"]["cache_dir"] = tableCacheDir().string();
   return lgp::parseRunConfig(j, cfg_.data_base_dir);
 }
 
@@ -257,7 +267,8 @@ Expected<std::string> JobManager::submit(PreparedRun run, bool* queue_full) {
   return run.record.id;
 }
 
-Expected<JobManager::TablePtr> JobManager::loadTable(const RunRecord& run) const {
+Expected<JobManager::TablePtr> JobManager::loadTable(const RunRecord& run,
+                                                     const std::atomic<bool>& halt) const {
   auto cfg = config(run);
   if (!cfg) return cfg.status();
   if (auto s = resolveInlineTable(run); !s) return s;
@@ -266,9 +277,25 @@ Expected<JobManager::TablePtr> JobManager::loadTable(const RunRecord& run) const
     if (auto s = checkDataPaths(*cfg); !s) return s;
     if (auto s = checkDataFiles(*cfg); !s) return s;
   }
-  auto t = lgp::cli::loadRunTable(*cfg);
+  lgp::cli::TableLoadOptions opt;
+  opt.stop = [&halt] { return halt.load(std::memory_order_relaxed); };
+  auto t = lgp::cli::loadRunTable(*cfg, opt);
   if (!t) return t.status();
   return TablePtr(std::make_shared<const lgp::Table>(std::move(*t)));
+}
+
+std::shared_ptr<std::atomic<bool>> JobManager::loadHaltLocked(const std::string& id) {
+  auto& flag = load_halts_[id];
+  if (!flag) flag = std::make_shared<std::atomic<bool>>(loads_halted_);
+  return flag;
+}
+
+void JobManager::releaseLoadHaltLocked(const std::string& id,
+                                       const std::shared_ptr<std::atomic<bool>>& halt) {
+  // Copies are made under table_mutex_ only: the map's and the caller's are the last two.
+  if (auto it = load_halts_.find(id); it != load_halts_.end() && it->second == halt &&
+                                      halt.use_count() <= 2)
+    load_halts_.erase(it);
 }
 
 void JobManager::publishTable(const std::string& id, TablePtr table) {
@@ -294,10 +321,10 @@ std::optional<Expected<JobManager::TablePtr>> JobManager::tableFor(const RunReco
       auto promise = std::make_shared<std::promise<Expected<TablePtr>>>();
       pending = promise->get_future().share();
       table_loads_[run.id] = pending;
-      background([this, run, promise] {
+      background([this, run, promise, halt = loadHaltLocked(run.id)] {
         Expected<TablePtr> t = Status::error("lgpd is stopping");
         try {
-          t = loadTable(run);
+          t = loadTable(run, *halt);
         } catch (const std::exception& e) {
           t = Status::error(std::string("cannot load the table: ") + e.what());
         } catch (...) {
@@ -306,6 +333,7 @@ std::optional<Expected<JobManager::TablePtr>> JobManager::tableFor(const RunReco
         {
           std::lock_guard done_lock(table_mutex_);
           table_loads_.erase(run.id);  // an error is not kept: the file may come back
+          releaseLoadHaltLocked(run.id, halt);
         }
         if (t) publishTable(run.id, *t);
         promise->set_value(std::move(t));
@@ -328,7 +356,7 @@ std::optional<json> JobManager::scoredReferences(const RunRecord& run,
       auto promise = std::make_shared<std::promise<json>>();
       pending = promise->get_future().share();
       ref_scores_[run.id] = pending;
-      background([this, run, promise] {
+      background([this, run, promise, halt = loadHaltLocked(run.id)] {
         json out = json::array();
         std::string why;
         try {
@@ -343,7 +371,7 @@ std::optional<json> JobManager::scoredReferences(const RunRecord& run,
               if (auto c = tables_.find(run.id); c != tables_.end()) table = c->second;
             }
             if (!table) {
-              table = loadTable(run);
+              table = loadTable(run, *halt);
               if (table) publishTable(run.id, *table);
             }
             if (!table) {
@@ -360,6 +388,10 @@ std::optional<json> JobManager::scoredReferences(const RunRecord& run,
           why = std::string("scoring failed: ") + e.what();
         } catch (...) {
           why = "scoring failed: an unknown exception";
+        }
+        {
+          std::lock_guard done_lock(table_mutex_);
+          releaseLoadHaltLocked(run.id, halt);
         }
         if (!why.empty()) {
           for (const auto& r : run.config.value("references", json::array())) {
@@ -404,6 +436,10 @@ Status JobManager::start() {
   if (!running) return running.status();
   std::error_code ec;
   fs::create_directories(cfg_.data_dir / "tables", ec);
+  // Owner-only: the generated tables are trusted only where no other user can write
+  // (lgp::datasets::generateCached checks it).
+  fs::create_directories(tableCacheDir(), ec);
+  fs::permissions(tableCacheDir(), fs::perms::owner_all, fs::perm_options::replace, ec);
   if (mpi_.usable())
     spdlog::info("MPI runs: {} with {}{}", mpi_.launcher.string(), mpi_.lgp.string(),
                  mpi_.hostfile.empty() ? "" : ", hostfile " + mpi_.hostfile.string());
@@ -620,6 +656,10 @@ Expected<bool> JobManager::remove(const std::string& id) {
     tables_.erase(id);
     std::erase(table_order_, id);
     ref_scores_.erase(id);
+    if (auto it = load_halts_.find(id); it != load_halts_.end()) {
+      it->second->store(true);  // a background load of its table stops
+      load_halts_.erase(it);
+    }
   }
   // Rows go now; a job still finishing its generation skips every write once it sees the
   // flag, and foreign keys reject any write that races with this.
@@ -640,6 +680,11 @@ void JobManager::shutdown() {
     if (stopping_) return;
     stopping_ = true;
     for (auto& [id, job] : jobs_) job->shutdown.store(true);
+  }
+  {
+    std::lock_guard lock(table_mutex_);
+    loads_halted_ = true;
+    for (auto& [id, halt] : load_halts_) halt->store(true);
   }
   cv_.notify_all();
   if (scheduler_.joinable()) scheduler_.join();

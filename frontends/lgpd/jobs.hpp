@@ -11,7 +11,10 @@
 // Cancel: requestStop() on the search; the generation in flight completes and the run ends
 // as "cancelled" with the front it had. Delete: as cancel, then every row of the run goes.
 // Shutdown (SIGINT/SIGTERM): each job checkpoints and stays "running", so the next lgpd
-// resumes it. After kill -9 the same happens from the last checkpoint.
+// resumes it. After kill -9 the same happens from the last checkpoint. A job still generating
+// its scene's table stops at the next integral on any of the three: a cancelled run ends
+// "cancelled" without a front, a deleted one leaves nothing, and at shutdown the run stays
+// queued for the next lgpd.
 //
 // A run whose config sets mpi.np > 0 runs out of process instead: the job thread writes the
 // config into <data-dir>/mpi/<id>/, starts `launcher -np N ... lgp run` there (mpi_launch.hpp)
@@ -28,6 +31,7 @@
 // and a run whose count reaches kMaxStartAttempts is failed instead of started again.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -121,6 +125,9 @@ class JobManager {
   lgp::Status runLocalJob(Job& job, const lgp::RunConfig& cfg, std::unique_ptr<lgp::Search>& search,
                           const std::function<void()>& started);
   lgp::Status stepLocalJob(LocalRun& run, const std::function<void()>& started);
+  // A job stopped before its search started (while its table was generated): a cancelled run
+  // ends "cancelled", a deleted one is left alone, and at shutdown it stays queued.
+  lgp::Status stoppedBeforeStart(Job& job);
   // The end of a local job: its final front, or a checkpoint when the daemon is stopping.
   lgp::Status endLocalJob(LocalRun& run);
   // The out-of-process job of an MPI run (mpi_job.cpp). An error fails the run (unless it was
@@ -136,7 +143,13 @@ class JobManager {
   // error that fails it.
   lgp::Status endMpiJob(Job& job, MpiChild& child, int wait_status);
   void publishTable(const std::string& id, TablePtr table);
-  lgp::Expected<TablePtr> loadTable(const RunRecord& run) const;
+  // The run's table, on the background thread; generating a scene stops when `halt` is set
+  // (the run deleted, the daemon stopping).
+  lgp::Expected<TablePtr> loadTable(const RunRecord& run, const std::atomic<bool>& halt) const;
+  // The flag that halts the background loads of run `id` (set by remove() and shutdown());
+  // with table_mutex_ held. A finished load releases it.
+  std::shared_ptr<std::atomic<bool>> loadHaltLocked(const std::string& id);
+  void releaseLoadHaltLocked(const std::string& id, const std::shared_ptr<std::atomic<bool>>& halt);
   // Runs `task` on the background thread (started on first use, joined by shutdown()).
   void background(std::function<void()> task);
   void backgroundLoop();
@@ -147,6 +160,9 @@ class JobManager {
   // checkDataPath for data.path and data.scene of a parsed config (at job start and before a
   // table load: a file may have become a link to one outside since submit).
   lgp::Status checkDataPaths(const lgp::RunConfig& cfg) const;
+  // Where lgpd keeps the tables it generates from scenes (<data_dir>/cache, owner-only): a
+  // run's config never names it (lgpd never writes files a request names).
+  std::filesystem::path tableCacheDir() const;
 
   Store& store_;
   DaemonConfig cfg_;
@@ -164,6 +180,8 @@ class JobManager {
   std::vector<std::string> table_order_;
   std::map<std::string, std::shared_future<lgp::Expected<TablePtr>>> table_loads_;
   std::map<std::string, std::shared_future<nlohmann::json>> ref_scores_;
+  std::map<std::string, std::shared_ptr<std::atomic<bool>>> load_halts_;  // see loadHalt
+  bool loads_halted_ = false;  // shutdown(): every load halts, new ones at once
 
   // Work the HTTP handlers must not do themselves: one thread, first come first served.
   std::mutex bg_mutex_;

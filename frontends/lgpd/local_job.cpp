@@ -118,7 +118,10 @@ Status JobManager::runLocalJob(Job& job, const lgp::RunConfig& cfg,
                                const std::function<void()>& started) {
   const std::string& id = job.id;
   spdlog::info("run {}: loading its table", id);
-  auto loaded = lgp::cli::loadRunTable(cfg);
+  lgp::cli::TableLoadOptions load;
+  load.stop = [&job] { return job.stopRequested(); };
+  auto loaded = lgp::cli::loadRunTable(cfg, load);
+  if (!loaded && job.stopRequested()) return stoppedBeforeStart(job);
   if (!loaded) return loaded.status();
   auto table = std::make_shared<const lgp::Table>(std::move(*loaded));
   publishTable(id, table);
@@ -146,6 +149,20 @@ Status JobManager::runLocalJob(Job& job, const lgp::RunConfig& cfg,
   LocalRun run{job, *search, extras, std::move(start->exhaustive)};
   if (auto s = stepLocalJob(run, started); !s) return s;
   return endLocalJob(run);
+}
+
+Status JobManager::stoppedBeforeStart(Job& job) {
+  const std::string& id = job.id;
+  if (job.deleted.load()) {  // its rows are gone: nothing to write
+    spdlog::info("run {} deleted before its search started", id);
+    return Status::ok();
+  }
+  if (job.cancel.load()) {
+    spdlog::info("run {} cancelled before its search started", id);
+    return store_.cancelQueued(id);
+  }
+  spdlog::info("run {} stays queued for the next lgpd (stopped before its search)", id);
+  return Status::ok();  // shutdown: still queued, the next start takes it
 }
 
 Status JobManager::stepLocalJob(LocalRun& run, const std::function<void()>& started) {

@@ -78,7 +78,9 @@ std::string hintFor(int wait_status) {
 // run's extras, as the child adds them to its final front.
 class CheckpointFronts {
  public:
-  CheckpointFronts(const lgp::RunConfig& cfg, const std::string& id) : cfg_(cfg), id_(id) {}
+  // `stop`: the job's stop request, which ends a table generation (a scene's) at once.
+  CheckpointFronts(const lgp::RunConfig& cfg, const std::string& id, std::function<bool()> stop)
+      : cfg_(cfg), id_(id), stop_(std::move(stop)) {}
 
   std::optional<json> frontOf(const json& state) {
     if (failed_) return std::nullopt;
@@ -95,7 +97,9 @@ class CheckpointFronts {
 
  private:
   bool build(const json& state) {
-    auto table = lgp::cli::loadRunTable(cfg_);
+    lgp::cli::TableLoadOptions load;
+    load.stop = stop_;
+    auto table = lgp::cli::loadRunTable(cfg_, load);
     if (!table) {
       spdlog::warn("run {}: no live front ({})", id_, table.error());
       failed_ = true;
@@ -111,6 +115,7 @@ class CheckpointFronts {
 
   const lgp::RunConfig& cfg_;
   const std::string& id_;
+  std::function<bool()> stop_;
   std::unique_ptr<lgp::Search> viewer_;
   std::optional<lgp::cli::FrontExtras> extras_;  // the references scored once
   bool failed_ = false;
@@ -139,10 +144,13 @@ Expected<std::optional<int>> pickResume(Store& store, const std::string& id,
 
 // The config the child reads: the stored one (absolute data paths), with every output path
 // pointing into the work dir. A request's own output section never reaches the child.
-Status writeChildConfig(const RunRecord& run, const fs::path& inline_table, const MpiWorkDir& work,
+Status writeChildConfig(const RunRecord& run, const fs::path& inline_table,
+                        const fs::path& table_cache, const MpiWorkDir& work,
                         const DaemonConfig& daemon) {
   json rc = run.config;
   if (run.inline_table) rc["data"]["path"] = inline_table.string();
+  if (rc.contains("data") && rc["data"].is_object() && rc["data"].contains("scene"))
+    rc["data"]["cache_dir"] = table_cache.string();  // lgpd's own (JobManager::config)
   json output = {{"front_json", work.front().string()},
                  {"front_csv", ""},
                  {"progress_interval_s", daemon.progress_interval_s},
@@ -227,7 +235,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
   if (!resume_generation) return resume_generation.status();
   const bool resume = resume_generation->has_value();
   const int generation = resume_generation->value_or(0);
-  if (auto s = writeChildConfig(run, inlineTablePath(id), work, cfg_); !s) return s;
+  if (auto s = writeChildConfig(run, inlineTablePath(id), tableCacheDir(), work, cfg_); !s) return s;
 
   if (job.deleted.load()) return Status::ok();
   if (job.cancel.load()) {
@@ -261,7 +269,7 @@ Status JobManager::runMpiJob(Job& job, const RunRecord& run, const lgp::RunConfi
                  std::move(*process),
                  fs::path(argv[0]).filename().string(),
                  run.counters,
-                 CheckpointFronts(cfg, id),
+                 CheckpointFronts(cfg, id, [&job] { return job.stopRequested(); }),
                  FileVersion(),
                  FileVersion::of(work.checkpoint()),
                  ""};

@@ -375,9 +375,8 @@ TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
     "outputs": ["A", "B"],
     "grid": {"mu": {"count": 256, "range": [0.015625, 1]}, "r": {"count": 256, "range": [0, 1]}},
     "accuracy": {"abs_error": 1e-7}})";
-  json cfg = {
-      {"data", {{"scene", scene.string()}, {"cache_dir", (tmp_->path() / "cache").string()}}},
-      {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  json cfg = {{"data", {{"scene", scene.string()}}},
+              {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
   // A bad scene is a 400 at submit, naming the field.
   json bad = cfg;
   std::ofstream(tmp_->path() / "bad.json") << R"({"outputs": ["A"], "grid": {"mu": {"count": 0}}})";
@@ -398,10 +397,101 @@ TEST_F(Hardening, SceneIsGeneratedByTheJobNotThePost) {
   EXPECT_EQ(daemon_->get("/api/v1/runs").status, 200);
   EXPECT_EQ(daemon_->get("/api/v1/runs/" + id).status, 200);
   ASSERT_TRUE(daemon_->del("/api/v1/runs/" + id).status == 200);
-  // (The job finishes generating in the background; the fixture's stop waits for it or
-  // kills it.)
-  daemon_->kill9();
-  daemon_.reset();
+  // (The delete stops the generation: the fixture's stop finds the daemon idle.)
+}
+
+// A scene whose table takes minutes to generate (64,000 three-input dielectric rows).
+fs::path slowScene(const fs::path& dir) {
+  const fs::path scene = dir / "slow_dielectric.json";
+  std::ofstream(scene) << R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["E_dielectric"],
+    "grid": {"mu": {"count": 40}, "r": {"count": 40}, "eta": {"count": 40, "range": [1.1, 2.5]}}})";
+  return scene;
+}
+
+// Waits until lgpd's log says the run is loading (generating) its table.
+bool waitLoading(const Daemon& d, const std::string& id) {
+  for (int i = 0; i < 600; ++i) {
+    if (d.log().find("run " + id + ": loading its table") != std::string::npos) return true;
+    sleepMs(50);
+  }
+  return false;
+}
+
+// Hardening round 4, F1: data.cache_dir named where lgpd wrote and read generated tables (a
+// file at outside/created/by/lgpd/<key>.lgpt, and a poisoned entry served as the scene's
+// integral). lgpd keeps its own cache, owner-only, and a run may not name one.
+TEST_F(Hardening, RunsMayNotNameTheTableCache) {
+#ifndef LGPD_TEST_HAVE_DATASETS
+  LGP_SKIP_UNLESS_REQUIRED() << "lgpd without the datasets library";
+#endif
+  const fs::path scene = tmp_->path() / "favg.json";
+  std::ofstream(scene) << R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["F_avg"], "grid": {"eta": {"count": 16, "range": [1, 2.5]}}})";
+  const fs::path outside = tmp_->path() / "outside";
+  json cfg = {{"data", {{"scene", scene.string()}, {"cache_dir", (outside / "created").string()}}},
+              {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  json j = refused(cfg.dump(), 400, "a cache_dir");
+  EXPECT_EQ(j.value("field", ""), "/data/cache_dir") << j.dump();
+  EXPECT_FALSE(fs::exists(outside));
+  cfg["data"].erase("cache_dir");
+  const std::string id = daemon_->submit(cfg);
+  ASSERT_FALSE(id.empty());
+  ASSERT_EQ(daemon_->waitDone(id).value("status", ""), "finished") << daemon_->log();
+  const fs::path cache = tmp_->path() / "state" / "cache";
+  size_t entries = 0;
+  for (const auto& e : fs::directory_iterator(cache)) entries += e.path().extension() == ".lgpt";
+  EXPECT_EQ(entries, 1u);
+  EXPECT_EQ(fs::status(cache).permissions() & (fs::perms::group_all | fs::perms::others_all),
+            fs::perms::none);
+  EXPECT_FALSE(fs::exists(outside));
+}
+
+// Hardening round 4, F2: a job generating its scene ignored cancel, DELETE and SIGTERM (the
+// daemon burned CPU for minutes and exited 212 s after SIGTERM). Each stops it at once now.
+TEST_F(Hardening, GenerationStopsOnCancelDeleteAndShutdown) {
+#ifndef LGPD_TEST_HAVE_DATASETS
+  LGP_SKIP_UNLESS_REQUIRED() << "lgpd without the datasets library";
+#endif
+  json cfg = {{"data", {{"scene", slowScene(tmp_->path()).string()}}},
+              {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  // Cancel: the run ends "cancelled" within seconds.
+  const std::string a = daemon_->submit(cfg);
+  ASSERT_FALSE(a.empty());
+  ASSERT_TRUE(waitLoading(*daemon_, a)) << daemon_->log();
+  auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(daemon_->post("/api/v1/runs/" + a + "/cancel", "").status, 200);
+  EXPECT_EQ(daemon_->waitDone(a, 20).value("status", ""), "cancelled") << daemon_->log();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  // Delete: the job ends without writing to the deleted run (no FOREIGN KEY failure).
+  const std::string b = daemon_->submit(cfg);
+  ASSERT_FALSE(b.empty());
+  ASSERT_TRUE(waitLoading(*daemon_, b)) << daemon_->log();
+  ASSERT_EQ(daemon_->del("/api/v1/runs/" + b).status, 200);
+  for (int i = 0; i < 200 && daemon_->log().find("run " + b + " deleted before its search") ==
+                                 std::string::npos;
+       ++i)
+    sleepMs(50);
+  EXPECT_NE(daemon_->log().find("run " + b + " deleted before its search"), std::string::npos);
+  // SIGTERM: the daemon exits 0 within seconds; the run stays queued for the next start.
+  const std::string c = daemon_->submit(cfg);
+  ASSERT_FALSE(c.empty());
+  ASSERT_TRUE(waitLoading(*daemon_, c)) << daemon_->log();
+  t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(daemon_->stop(), 0) << daemon_->log();
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  const std::string log = daemon_->log();
+  EXPECT_EQ(log.find("FOREIGN KEY"), std::string::npos) << log;
+  EXPECT_EQ(log.find("run " + b + " failed"), std::string::npos) << log;
+  EXPECT_NE(log.find("run " + c + " stays queued"), std::string::npos) << log;
+  daemon_.emplace(tmp_->path() / "state");
+  ASSERT_TRUE(daemon_->start());
+  EXPECT_EQ(daemon_->get("/api/v1/runs/" + b).status, 404);
+  const json run = daemon_->get("/api/v1/runs/" + c).j();
+  EXPECT_TRUE(run.value("status", "") == "queued" || run.value("status", "") == "running")
+      << run.dump();
+  ASSERT_EQ(daemon_->post("/api/v1/runs/" + c + "/cancel", "").status, 200);
+  EXPECT_EQ(daemon_->waitDone(c, 20).value("status", ""), "cancelled") << daemon_->log();
 }
 
 // Sockets that each send the start of a request, then one byte a second, from `src`.
@@ -710,7 +800,7 @@ TEST(HardeningJobs, RunWhoseStartKillsTheDaemonIsFailedNotRetriedForever) {
     "material": {"ndf": "ggx", "visibility": "smith-correlated", "fresnel": "schlick"},
     "grid": {"mu": {"count": 512, "range": [0.015625, 1]}, "r": {"count": 512, "range": [0, 1]}},
     "accuracy": {"abs_error": 1e-8}})";
-  json cfg = {{"data", {{"scene", scene.string()}, {"cache_dir", (tmp.path() / "cache").string()}}},
+  json cfg = {{"data", {{"scene", scene.string()}}},
               {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
   const fs::path state = tmp.path() / "state";
   std::string id;
