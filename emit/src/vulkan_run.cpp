@@ -161,6 +161,8 @@ Expected<std::vector<VulkanCheck>> verifyOnVulkan(const EmitInput& in, const Tab
       EmitOptions eo;
       eo.precision = p;
       eo.fast = o.fast;
+      eo.pow_rewrites = o.pow_rewrites;
+      eo.domain_rewrites = o.domain_rewrites;
       eo.header = false;
       auto e = emitProgram(in, lang, eo);
       if (!e) return e.status();
@@ -168,11 +170,21 @@ Expected<std::vector<VulkanCheck>> verifyOnVulkan(const EmitInput& in, const Tab
       if (!got)
         return Status::error(std::string(toString(lang)) + " " + std::string(toString(p)) + ": " +
                              got.error());
-      // The reference: the emitted DAG evaluated as lgp does (bit-identical to the interpreter
-      // in float; the binary16 emulation in half), inverse transforms applied.
+      // The reference: the member's DAG with exact rewrites only (no domain: the one `in`
+      // claims is not evidence), evaluated as lgp does (bit-identical to the interpreter in
+      // float; the binary16 emulation in half), inverse transforms applied.
+      EmitInput as_scored = in;
+      as_scored.domain.clear();
+      EmitOptions ro;
+      ro.precision = p;
+      ro.pow_rewrites = false;
+      ro.domain_rewrites = false;
+      ro.header = false;
+      auto r = emitProgram(as_scored, lang, ro);
+      if (!r) return r.status();
       std::vector<TargetTransform> tr = in.transforms;
-      tr.resize(e->output_access.size(), TargetTransform::None);
-      auto ref = detail::dagValues(e->dag, t, tr, ref_p);
+      tr.resize(r->output_access.size(), TargetTransform::None);
+      auto ref = detail::dagValues(r->dag, t, tr, ref_p);
       if (!ref) return ref.status();
       c.outputs = compareValues(*got, *ref, ref_p, t, in.output_names);
       out.push_back(std::move(c));

@@ -1,4 +1,5 @@
 // `lgp emit front.json --lang hlsl|glsl|cpp`: export one front member as shader or C++ code.
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -31,10 +32,28 @@ std::string num(double v) {
   return std::isfinite(v) ? b : "inf";
 }
 
+// The inputs of `t` with values outside the domain `in` records, as "r in [0.5, 1]" (empty:
+// none).
+std::string outsideDomain(const lgp::emit::EmitInput& in, const lgp::Table& t) {
+  std::string out;
+  for (size_t i = 0; i < in.domain.size() && i < t.numInputs(); ++i) {
+    const auto [lo, hi] = std::minmax_element(t.inputs[i].begin(), t.inputs[i].end());
+    if (lo == t.inputs[i].end() || (*lo >= in.domain[i].lo && *hi <= in.domain[i].hi)) continue;
+    out += (out.empty() ? "" : ", ") + in.input_names[i] + " in [" + num(in.domain[i].lo) + ", " +
+           num(in.domain[i].hi) + "]";
+  }
+  return out;
+}
+
 // `--verify vulkan`: every language and precision on lavapipe; the report goes to stderr so that
 // stdout stays the code.
-int verifyVulkan(const lgp::emit::EmitInput& in, const lgp::Table& t, size_t member, double bound) {
-  auto checks = lgp::emit::verifyOnVulkan(in, t);
+int verifyVulkan(const lgp::emit::EmitInput& in, const lgp::Table& t, size_t member, double bound,
+                 const lgp::emit::EmitOptions& eo) {
+  lgp::emit::VerifyOptions vo;
+  vo.fast = eo.fast;
+  vo.pow_rewrites = eo.pow_rewrites;
+  vo.domain_rewrites = eo.domain_rewrites;
+  auto checks = lgp::emit::verifyOnVulkan(in, t, vo);
   if (!checks) return fail("--verify vulkan: " + checks.error());
   const auto st = lgp::emit::vulkanRunStatus();
   std::fprintf(stderr, "lgp emit: member %zu run on %s over %zu rows\n", member, st.detail.c_str(),
@@ -63,6 +82,11 @@ int verifyVulkan(const lgp::emit::EmitInput& in, const lgp::Table& t, size_t mem
   }
   if (!ok) {
     std::fprintf(stderr, "lgp emit: --verify vulkan: disagreement over %g ulp of max|y|\n", bound);
+    if (eo.domain_rewrites && !outsideDomain(in, t).empty())
+      std::fprintf(stderr,
+                   "lgp emit: the code assumes the front's domain (%s); the table has rows "
+                   "outside it: emit with --no-domain-rewrites for code that holds there\n",
+                   lgp::terminalSafe(outsideDomain(in, t)).c_str());
     return 1;
   }
   return 0;
@@ -264,7 +288,7 @@ int emitMain(int argc, char** argv) {
     std::fprintf(stderr, "warning: member %zu: %s\n", *member, w.c_str());
   if (auto st = writeCode(args, e->code); !st) return fail(st.message());
   if (args.count("verify"))
-    return verifyVulkan(*in, **table, *member, args["verify-ulp"].as<double>());
+    return verifyVulkan(*in, **table, *member, args["verify-ulp"].as<double>(), *eo);
   return 0;
 }
 

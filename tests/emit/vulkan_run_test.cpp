@@ -140,6 +140,58 @@ TEST(VulkanRun, OneChangedConstantFailsTheBound) {
   }
 }
 
+// Hardening round 4, F5: the shaders were compared with the domain-rewritten DAG, so a member
+// fitted on mu >= 0.5 and emitted without its saturate "verified" on a table reaching mu = 0,
+// where the shader differs from the member as scored. The reference is the member as scored:
+// code emitted for the domain fails outside it, and holds with --no-domain-rewrites.
+TEST(VulkanRun, ReferenceIsTheMemberAsScoredNotTheRewrittenCode) {
+  LGP_REQUIRE_LAVAPIPE();
+  // y = saturate(2.5 * mu - 0.5): on mu in [0, 1] the operand is in [-0.5, 2], and on [0.5,
+  // 0.55] in [0.75, 0.875], where saturate never switches and the emitter drops it.
+  auto table = [](double lo, double hi) {
+    Table t;
+    t.input_names = {"mu"};
+    t.output_names = {"y"};
+    t.inputs.assign(1, {});
+    t.outputs.assign(1, {});
+    for (int r = 0; r <= 40; ++r) {
+      t.inputs[0].push_back(lo + (hi - lo) * r / 40.0);
+      t.outputs[0].push_back(0.0);
+    }
+    return t;
+  };
+  EmitInput in;
+  in.input_names = {"mu"};
+  in.output_names = {"y"};
+  in.program.constants = {2.5f, -0.5f};
+  const Operand mu{OperandKind::Var, 0}, c0{OperandKind::Const, 0}, c1{OperandKind::Const, 1},
+      r0{OperandKind::Reg, 0};
+  in.program.code = {Instr{Op::Mad, {mu, c0, c1}}, Instr{Op::Saturate, {r0}}};
+  in.program.outputs = {1};
+  in.domain = {Interval{0.5, 0.55, false}};  // as fitted (or as a tampered front claims)
+  EmitOptions eo;
+  eo.header = false;
+  auto e = emitProgram(in, Language::Glsl, eo);
+  ASSERT_TRUE(e.hasValue()) << e.error();
+  ASSERT_EQ(e->code.find("saturate"), std::string::npos) << e->code;  // dropped on the domain
+  VerifyOptions vo;
+  vo.langs = {Language::Glsl, Language::Hlsl};
+  vo.precisions = {Precision::Float};
+  auto inside = verifyOnVulkan(in, table(0.5, 0.55), vo);
+  ASSERT_TRUE(inside.hasValue()) << inside.error();
+  for (const auto& c : *inside) EXPECT_LE(c.worstScaledUlp(), kFloatUlpBound);
+  auto wide = verifyOnVulkan(in, table(0.0, 1.0), vo);
+  ASSERT_TRUE(wide.hasValue()) << wide.error();
+  for (const auto& c : *wide) {
+    EXPECT_GT(c.worstScaledUlp(), kFloatUlpBound) << toString(c.lang);
+    EXPECT_NEAR(c.outputs[0].max_abs_diff, 1.0, 1e-6) << toString(c.lang);  // 2 vs 1 at mu = 1
+  }
+  vo.domain_rewrites = false;
+  auto kept = verifyOnVulkan(in, table(0.0, 1.0), vo);
+  ASSERT_TRUE(kept.hasValue()) << kept.error();
+  for (const auto& c : *kept) EXPECT_LE(c.worstScaledUlp(), kFloatUlpBound) << toString(c.lang);
+}
+
 TEST(VulkanRun, RunsEveryRowOfALargeTable) {
   LGP_REQUIRE_LAVAPIPE();
   // 100 000 rows, 3 inputs, 2 outputs: dispatches of many workgroups, all rows written.

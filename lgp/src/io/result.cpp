@@ -491,6 +491,26 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
   return os.str();
 }
 
+namespace {
+// A front is a file anyone may hand over: its config never names where a generated table is
+// cached (the user's default cache instead), and its table's columns are the columns the run
+// selects, so that a scene without them is refused before it is generated.
+Expected<RunConfig> parseFrontConfig(const nlohmann::json& front, nlohmann::json c,
+                                     const std::filesystem::path& base) {
+  if (!c.contains("data") || !c["data"].is_object())
+    return Status::error("/config/data: the front records no data section");
+  c["data"].erase("cache_dir");
+  auto cfg = parseRunConfig(c, base);
+  if (!cfg) return Status::error("/config: " + cfg.error());
+  const auto& t = front.contains("table") ? front["table"] : nlohmann::json::object();
+  if (cfg->data.inputs.empty() && t.contains("inputs") && t["inputs"].is_array())
+    cfg->data.inputs = names(t["inputs"]);
+  if (cfg->data.outputs.empty() && t.contains("outputs") && t["outputs"].is_array())
+    cfg->data.outputs = names(t["outputs"]);
+  return cfg;
+}
+}  // namespace
+
 Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
                                    const std::filesystem::path& front_path,
                                    const std::string& data_override) {
@@ -498,12 +518,9 @@ Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
     return Status::error("/config: the front records no run config");
   if (!data_override.empty()) {
     nlohmann::json c = front["config"];
-    c["data"].erase("scene");
-    c["data"].erase("cache_dir");
+    if (c.contains("data") && c["data"].is_object()) c["data"].erase("scene");
     c["data"]["path"] = std::filesystem::absolute(data_override).string();
-    auto cfg = parseRunConfig(c, ".");
-    if (!cfg) return Status::error("/config: " + cfg.error());
-    return cfg;
+    return parseFrontConfig(front, std::move(c), ".");
   }
   const auto& data = front["config"].value("data", nlohmann::json::object());
   const std::string rel = data.value("path", data.value("scene", std::string()));
@@ -521,9 +538,7 @@ Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
       tried += (tried.empty() ? "" : ", ") + p.string();
       continue;
     }
-    auto cfg = parseRunConfig(front["config"], b);
-    if (!cfg) return Status::error("/config: " + cfg.error());
-    return cfg;
+    return parseFrontConfig(front, front["config"], b);
   }
   return Status::error("/config/data: the run's table was not found (looked for " + tried +
                        "); give it with --data");

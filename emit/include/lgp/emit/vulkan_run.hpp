@@ -74,9 +74,16 @@ nlohmann::json toJson(const VulkanCheck& c);
 struct VerifyOptions {
   std::vector<Language> langs = {Language::Glsl, Language::Hlsl};
   std::vector<Precision> precisions = {Precision::Float, Precision::Half};
-  bool fast = false;  // emit as --fast does
+  // The code is emitted as with these EmitOptions (`lgp emit --fast`, `--no-pow-rewrites`,
+  // `--no-domain-rewrites`).
+  bool fast = false;
+  bool pow_rewrites = true;
+  bool domain_rewrites = true;
 };
-// Every language x precision of `o`, on every row of `t`.
+// Every language x precision of `o`, on every row of `t`. The reference is the member as
+// scored, whatever domain `in` claims: the float32 interpreter's values of the program (in
+// half, the binary16 emulation of its DAG) without rewrites that hold on a domain only, so
+// that code emitted for the front's domain disagrees on rows outside it, as a shader would.
 Expected<std::vector<VulkanCheck>> verifyOnVulkan(const EmitInput& in, const Table& t,
                                                   const VerifyOptions& o = {});
 

@@ -92,7 +92,10 @@ std::string formatFrontTable(const nlohmann::json& front, const FrontTableOption
 // The run config recorded in a front, with base_dir set so that its data path resolves:
 // /config_dir when the table is there, else the front file's directory. With `data` set, the
 // config reads that table file instead (path as given; columns as recorded). Errors say where
-// it looked.
+// it looked. A front is untrusted input: its data.cache_dir is dropped (a scene's table is
+// cached where the user's runs cache it), and data.inputs/outputs are the front's /table
+// columns where the config does not list them, so that loading checks a scene's columns
+// before generating it.
 Expected<RunConfig> frontRunConfig(const nlohmann::json& front,
                                    const std::filesystem::path& front_path,
                                    const std::string& data = "");
