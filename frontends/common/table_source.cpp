@@ -17,12 +17,12 @@ namespace {
 constexpr const char* kStaleCacheEntry = "the cached table is not usable";
 
 // Before the search: values the float32 evaluation cannot hold would leave every error NaN
-// or infinite, and the front empty.
+// or infinite, and the front empty; and the program shape must fit the table's outputs.
 Status checkNumerics(const RunConfig& cfg, const Table& t) {
   if (auto s = checkErrorNumerics(t, cfg.errorConfig(t.output_names)); !s)
     return Status::error((cfg.data.scene.empty() ? "/data/path" : "/data/scene") +
                          std::string(": ") + s.message());
-  return Status::ok();
+  return cfg.validateShape(t.numOutputs());
 }
 
 #ifdef LGP_HAVE_DATASETS

@@ -173,7 +173,6 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
   }
   auto cfg = lgp::parseRunConfig(j, cfg_.data_base_dir);
   if (!cfg) return cfg.status();
-  if (auto s = checkSearchMemory(*cfg, cfg_.runMemoryBytes()); !s) return s;
   if (auto s = checkServedByLgpd(*cfg); !s) return s;
   if (cfg->mpi.np > 0) {
     if (cfg->mpi.np > cfg_.mpi.max_np)
@@ -207,6 +206,15 @@ Expected<PreparedRun> JobManager::prepare(const json& submission) const {
     if (!c) return c.status();
     columns = std::move(*c);
   }
+  // The shape's bounds and the memory of its longest programs need the output count: known
+  // for every table but a large JSON file whose columns the config does not name (priced at
+  // the 255-opcode bound then, and the job checks the shape).
+  std::optional<size_t> outputs;
+  if (columns.known) {
+    outputs = columns.outputs.size();
+    if (auto s = cfg->validateShape(*outputs); !s) return s;
+  }
+  if (auto s = checkSearchMemory(*cfg, outputs, cfg_.runMemoryBytes()); !s) return s;
   if (auto s = checkReferencesAtSubmit(*cfg, columns); !s) return s;
   out.record.config = j;
   out.record.status = RunStatus::Queued;

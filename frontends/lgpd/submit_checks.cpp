@@ -179,11 +179,26 @@ Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumns& co
 
 namespace {
 
-uint64_t programBytes(const lgp::RunConfig& cfg) {
+// The longest program of the run's shape (what ProgramShape allows, plus the output layer's
+// opcodes and constants under linear scaling), for `outputs` table outputs; unknown outputs
+// (a large JSON table whose columns the config does not name): the 255 of either.
+ProgramSize programSize(const lgp::RunConfig& cfg, std::optional<size_t> outputs) {
+  if (!outputs) return {255, 255};
+  const uint64_t n = *outputs;
+  const uint64_t genes = cfg.search.linear_scaling ? static_cast<uint64_t>(cfg.program.genes) : 1;
+  uint64_t opcodes = std::max<uint64_t>(static_cast<uint64_t>(cfg.program.max_length), n * genes);
+  uint64_t constants = static_cast<uint64_t>(cfg.program.num_constants);
+  if (cfg.search.linear_scaling) {
+    opcodes += n * genes;
+    constants += n * (genes + 1);
+  }
+  return {std::min<uint64_t>(opcodes, 255), std::min<uint64_t>(constants, 255)};
+}
+
+uint64_t programBytes(const ProgramSize& size) {
   // The vectors' contents plus the Program and its objectives; 64 bytes of allocator slack.
-  return sizeof(lgp::Program) + sizeof(lgp::Objectives) + 64 +
-         sizeof(lgp::Instr) * static_cast<uint64_t>(cfg.program.max_length) +
-         sizeof(float) * static_cast<uint64_t>(cfg.program.num_constants) + 64;
+  return sizeof(lgp::Program) + sizeof(lgp::Objectives) + 64 + sizeof(lgp::Instr) * size.opcodes +
+         sizeof(float) * size.constants + 64;
 }
 
 std::string gib(uint64_t bytes) {
@@ -206,24 +221,26 @@ Status checkServedByLgpd(const lgp::RunConfig& cfg) {
   return Status::ok();
 }
 
-SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg) {
+SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg, std::optional<size_t> outputs) {
   const uint64_t programs = 4 * static_cast<uint64_t>(std::max(cfg.search.population, 0)) +
                             static_cast<uint64_t>(std::max(cfg.search.archive.max_size, 0));
   SearchBytes b;
-  b.programs = programs * programBytes(cfg);
+  b.program_size = programSize(cfg, outputs);
+  b.programs = programs * programBytes(b.program_size);
   b.islands = static_cast<uint64_t>(std::max(cfg.search.islands.count, 0)) * kIslandOverheadBytes;
   b.semantic_cache =
       lgp::SemanticCache::bytesFor(static_cast<size_t>(std::max(cfg.search.semantic_cache, 0)));
   return b;
 }
 
-lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit) {
-  const SearchBytes b = estimateSearchBytes(cfg);
+lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, std::optional<size_t> outputs,
+                              uint64_t limit) {
+  const SearchBytes b = estimateSearchBytes(cfg, outputs);
   const uint64_t need = b.total();
   if (need <= limit) return lgp::Status::ok();
   const std::string what = "this run would need about " + gib(need) + " (" + gib(b.programs) +
                            " for " + std::to_string(cfg.search.population) + " programs of up to " +
-                           std::to_string(cfg.program.max_length) + " opcodes, " + gib(b.islands) +
+                           std::to_string(b.program_size.opcodes) + " opcodes, " + gib(b.islands) +
                            " for " + std::to_string(cfg.search.islands.count) + " islands, " +
                            gib(b.semantic_cache) + " for a semantic cache of " +
                            std::to_string(cfg.search.semantic_cache) +

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -53,20 +54,29 @@ lgp::Status checkReferencesAtSubmit(const lgp::RunConfig& cfg, const TableColumn
 // an lgpd that took it.
 lgp::Status checkServedByLgpd(const lgp::RunConfig& cfg);
 
-// What a search of `cfg` holds in memory, roughly, by what sets it: its programs (each at its
-// longest, program.max_length opcodes and program.constants constants; four per population
-// slot, the population, its offspring and the selection pool with its copies, plus the
-// archive's), kIslandOverheadBytes per island, and the semantic cache, which is allocated in
-// full when the search starts. The table and the evaluation buffers are not counted.
+// The longest program a run's shape allows: opcodes and constant slots.
+struct ProgramSize {
+  uint64_t opcodes = 0, constants = 0;
+};
+
+// What a search of `cfg` on a table of `outputs` outputs holds in memory, roughly, by what
+// sets it: its programs (each at its longest, ProgramSize: program.max_length opcodes, or
+// outputs x genes where that is more, plus the output layer's opcodes and constants under
+// linear scaling; 255 of each when the outputs are not known; four per population slot, the
+// population, its offspring and the selection pool with its copies, plus the archive's),
+// kIslandOverheadBytes per island, and the semantic cache, which is allocated in full when the
+// search starts. The table and the evaluation buffers are not counted.
 struct SearchBytes {
   uint64_t programs = 0, islands = 0, semantic_cache = 0;
+  ProgramSize program_size;
   uint64_t total() const { return programs + islands + semantic_cache; }
 };
-SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg);
+SearchBytes estimateSearchBytes(const lgp::RunConfig& cfg, std::optional<size_t> outputs);
 inline constexpr uint64_t kIslandOverheadBytes = uint64_t{64} << 10;
 // A 400 naming the largest share (/search/population, /search/islands/count or
-// /search/semantic_cache) when estimateSearchBytes(cfg) exceeds `limit` (the daemon's
+// /search/semantic_cache) when estimateSearchBytes exceeds `limit` (the daemon's
 // max_run_memory_mb).
-lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, uint64_t limit);
+lgp::Status checkSearchMemory(const lgp::RunConfig& cfg, std::optional<size_t> outputs,
+                              uint64_t limit);
 
 }  // namespace lgpd

@@ -102,6 +102,7 @@ lgp::Table arrayTable(const lgp::RunConfig& cfg, const Matrix& x, const Matrix& 
   if (auto st = t.validate(); !st) valueError("data: " + st.message());
   if (auto st = lgp::checkErrorNumerics(t, cfg.errorConfig(t.output_names)); !st)
     valueError("y: " + st.message());
+  if (auto st = cfg.validateShape(t.numOutputs()); !st) valueError(st.message());
   return t;
 }
 

@@ -172,3 +172,44 @@ TEST(TamperedCheckpoint, CombiningRefusesATamperedPart) {
 
 }  // namespace
 }  // namespace lgp
+
+namespace lgp {
+namespace {
+
+// Hardening round 4, F12: a checkpoint's objectives were trusted on restore (a front claimed
+// 1e-12, or -1, while the member's program scores 0.165), and generation -2^31 resumed for 2^31
+// generations. Every recorded error is scored again, and the counters must be counts.
+TEST(TamperedCheckpoint, ClaimedErrorsAreScoredAgain) {
+  for (double claim : {1e-12, -1.0}) {
+    json ck = checkpointAfterTwo();
+    ASSERT_FALSE(ck["archive"].empty());
+    ck["archive"][0]["obj"][0] = claim;
+    const std::string e = restoreError(ck);
+    EXPECT_TRUE(has(e, "archive member 0 claims error")) << e;
+    EXPECT_TRUE(has(e, "its program scores")) << e;
+  }
+  json ck = checkpointAfterTwo();
+  ck["islands"][1]["population"][3]["obj"][0] = 1e-9;
+  EXPECT_TRUE(has(restoreError(ck), "island 1 member 3 claims error")) << restoreError(ck);
+  ck = checkpointAfterTwo();
+  ck["archive"][0]["obj"][1] = -5.0;  // a negative cost
+  EXPECT_TRUE(has(restoreError(ck), "cost and discontinuity must be finite")) << restoreError(ck);
+}
+
+TEST(TamperedCheckpoint, CountersMustBeCounts) {
+  for (const char* key : {"generation", "evaluations"}) {
+    json ck = checkpointAfterTwo();
+    ck[key] = -2147483648LL;
+    EXPECT_TRUE(has(restoreError(ck), std::string("/") + key + ": must be an integer >= 0"))
+        << key << ": " << restoreError(ck);
+  }
+  json ck = checkpointAfterTwo();
+  ck["elapsed_s"] = -1.0;
+  EXPECT_TRUE(has(restoreError(ck), "/elapsed_s")) << restoreError(ck);
+  ck = checkpointAfterTwo();
+  ck["islands"][0]["stagnant"] = -3;
+  EXPECT_TRUE(has(restoreError(ck), "/stagnant")) << restoreError(ck);
+}
+
+}  // namespace
+}  // namespace lgp

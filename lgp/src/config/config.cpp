@@ -604,15 +604,27 @@ Status RunConfig::validate() const {
     return Status::error("/program/genes: the output layer needs search.linear_scaling: true");
   if (program.genes > 1 && search.multi_output.mode == MultiOutputMode::TwoStep)
     return Status::error("/program/genes: two_step multi-output fits one gene per output");
-  const int outputs = static_cast<int>(data.outputs.size());
-  if (search.linear_scaling && program.max_length + outputs * program.genes > 255)
+  return validateShape(data.outputs.size());
+}
+
+Status RunConfig::validateShape(size_t num_outputs) const {
+  if (!search.linear_scaling) return Status::ok();
+  const uint64_t outputs = num_outputs, genes = static_cast<uint64_t>(program.genes);
+  const std::string have = " (" + std::to_string(num_outputs) + " outputs x " +
+                           std::to_string(program.genes) + " genes)";
+  if (outputs * genes > 255)
+    return Status::error("/program/genes: outputs * genes must be <= 255" + have +
+                         "; lower program.genes or fit fewer outputs at once");
+  if (static_cast<uint64_t>(program.max_length) + outputs * genes > 255)
     return Status::error(
         "/program/max_length: linear scaling adds up to genes opcodes per output; "
-        "max_length + outputs * genes must be <= 255");
-  if (search.linear_scaling && program.num_constants + outputs * (program.genes + 1) > 255)
+        "max_length + outputs * genes must be <= 255" +
+        have);
+  if (static_cast<uint64_t>(program.num_constants) + outputs * (genes + 1) > 255)
     return Status::error(
         "/program/constants: linear scaling adds up to genes + 1 constants per output; "
-        "constants + outputs * (genes + 1) must be <= 255");
+        "constants + outputs * (genes + 1) must be <= 255" +
+        have);
   return Status::ok();
 }
 

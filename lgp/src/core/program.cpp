@@ -223,9 +223,15 @@ Expected<Program> programFromJson(const nlohmann::json& j, const ProgramShape& s
   if (j.contains("outputs")) {
     if (!j["outputs"].is_array()) return Status::error("program/outputs: must be an array");
     for (const auto& o : j["outputs"]) {
-      if (!o.is_number_integer() || o.get<int>() < 0 || o.get<int>() > 255)
-        return Status::error("program/outputs: must be opcode indices");
-      p.outputs.push_back(static_cast<uint8_t>(o.get<int>()));
+      // As a 64-bit value: get<int>() would wrap 2^32 to 0, a register the file did not name.
+      const bool in_range = o.is_number_unsigned()  ? o.get<uint64_t>() <= 255
+                            : o.is_number_integer() ? o.get<int64_t>() >= 0 &&
+                                                          o.get<int64_t>() <= 255
+                                                    : false;
+      if (!in_range)
+        return Status::error("program/outputs: must be opcode indices in [0, 255] (got " +
+                             o.dump() + ")");
+      p.outputs.push_back(static_cast<uint8_t>(o.get<int64_t>()));
     }
   } else {
     syncOutputs(p, shape);

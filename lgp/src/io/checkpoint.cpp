@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "lgp/core/program.hpp"
+
 namespace lgp {
 
 namespace {
@@ -24,6 +26,34 @@ Expected<Program> checkpointProgram(const nlohmann::json& member, const ProgramS
   if (auto st = validate(*p, shape); !st)
     return Status::error("program: " + st.message() + " (this run's shape)");
   return p;
+}
+
+// A member's recorded error is a claim: its program is scored again on the run's table, and
+// the two must agree (to 1e-4 relative: the same code gives the same float32 sums), else the
+// checkpoint is refused. What the search selects and the front reports is then never a
+// number the file made up.
+Status checkClaimedError(Scorer& scorer, const Program& p, const Objectives& claimed,
+                         const std::string& what) {
+  const double e = scorer.error(p);
+  const bool both_worst = !std::isfinite(e) && !claimed.finite();
+  if (both_worst || (std::isfinite(e) && claimed.finite() &&
+                     std::abs(e - claimed.error) <= 1e-4 * std::max(std::abs(e), 1e-30)))
+    return Status::ok();
+  return Status::error("checkpoint: " + what + " claims error " + formatDouble(claimed.error) +
+                       ", its program scores " + formatDouble(e) + " on this table");
+}
+
+// A counter that must be a non-negative integer of the given type.
+template <class T>
+Expected<T> counter(const nlohmann::json& st, const char* key) {
+  const auto& v = st.at(key);
+  if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() &&
+                                 v.get<int64_t>() < 0))
+    return Status::error(std::string("checkpoint: /") + key + ": must be an integer >= 0");
+  if (v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(
+                                                         std::numeric_limits<T>::max()))
+    return Status::error(std::string("checkpoint: /") + key + ": out of range");
+  return v.get<T>();
 }
 }  // namespace
 
@@ -130,24 +160,39 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
                            std::to_string(ck_first + held - 1) + " of " + std::to_string(ck_total) +
                            " (one rank of an MPI run); resume from the run's combined checkpoint");
     }
+    auto generation = counter<int>(st, "generation");
+    if (!generation) return generation.status();
+    auto evaluations = counter<uint64_t>(st, "evaluations");
+    if (!evaluations) return evaluations.status();
+    const double elapsed = st.at("elapsed_s").get<double>();
+    if (!(elapsed >= 0.0) || !std::isfinite(elapsed))
+      return Status::error("checkpoint: /elapsed_s: must be a finite number >= 0");
+    Scorer& scorer = s.scorer(0);
     std::vector<Search::Island> islands;
     for (int k = take_first; k < take_first + take_count; ++k) {
       const auto& ji = jislands.at(static_cast<size_t>(k));
+      const std::string at = "island " + std::to_string(k);
       Search::Island isl;
       for (const auto& j : ji.at("population")) {
         auto p = checkpointProgram(j, s.shape_);
         if (!p) return Status::error("checkpoint: population: " + p.error());
         auto o = objectivesFromJson(j.at("obj"));
         if (!o) return Status::error("checkpoint: population: " + o.error());
+        const std::string who = at + " member " + std::to_string(isl.pop.size());
+        if (auto c = checkClaimedError(scorer, *p, *o, who); !c) return c;
         isl.pop.push_back({*p, *o, j.value("refined", false)});
       }
       isl.rank = ji.at("rank").get<std::vector<int>>();
+      for (int r : isl.rank)
+        if (r < 0) return Status::error("checkpoint: " + at + ": a rank below 0");
       for (const auto& c : ji.at("crowd"))
         isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
       if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
         return Status::error("checkpoint: island ranks do not match its population");
       isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
-      isl.stagnant = ji.at("stagnant").get<int>();
+      auto stagnant = counter<int>(ji, "stagnant");
+      if (!stagnant) return Status::error(stagnant.error() + " (" + at + ")");
+      isl.stagnant = *stagnant;
       islands.push_back(std::move(isl));
     }
     Archive arch(s.cfg_.search.archive);
@@ -157,6 +202,12 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
       if (!p) return Status::error("checkpoint: archive: " + p.error());
       auto o = objectivesFromJson(j.at("obj"));
       if (!o) return Status::error("checkpoint: archive: " + o.error());
+      if (!std::isfinite(o->cost) || o->cost < 0 || !std::isfinite(o->discontinuity) ||
+          o->discontinuity < 0)
+        return Status::error("checkpoint: archive member " + std::to_string(members.size()) +
+                             ": cost and discontinuity must be finite and >= 0");
+      const std::string who = "archive member " + std::to_string(members.size());
+      if (auto c = checkClaimedError(scorer, *p, *o, who); !c) return c;
       members.push_back({*p, *o, j.value("refined", false)});
     }
     if (st.at("initialized").get<bool>()) {
@@ -195,9 +246,9 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
     s.restarts_ = take_counters ? st.at("restarts").get<uint64_t>() : 0;
     s.archive_ = std::move(arch);
     s.initialized_ = st.at("initialized").get<bool>();
-    s.generation_ = st.at("generation").get<int>();
-    s.evaluations_ = take_counters ? st.at("evaluations").get<uint64_t>() : 0;
-    s.elapsed_before_ = st.at("elapsed_s").get<double>();
+    s.generation_ = *generation;
+    s.evaluations_ = take_counters ? *evaluations : 0;
+    s.elapsed_before_ = elapsed;
     s.start_ = std::chrono::steady_clock::now();
     s.session_evals_ = 0;
   } catch (const nlohmann::json::exception& e) {

@@ -294,11 +294,28 @@ Status checkFrontJson(const nlohmann::json& j, const std::string& f) {
                 checkNoControlCharacters(d[key].get<std::string>(), f + ": /config/data/" + key);
             !s)
           return s;
+  const size_t k = j["table"]["outputs"].size();
   for (size_t i = 0; i < j["members"].size(); ++i) {
     const auto& m = j["members"][i];
     const std::string at = f + ": /members/" + std::to_string(i);
     if (!m.is_object() || !m.contains("program") || !m.contains("outputs") || !m.contains("cost"))
       return Status::error(at + ": needs program, outputs and cost");
+    if (!m.contains("index") || !m["index"].is_number_unsigned())
+      return Status::error(at + "/index: must be an integer >= 0");
+    // What the printers read (formatFrontTable, writeFrontCsv): one entry per output of the
+    // table, each with its float32 metrics.
+    const auto& outs = m["outputs"];
+    if (!outs.is_array() || outs.size() != k)
+      return Status::error(at + "/outputs: must be an array of " + std::to_string(k) +
+                           " entries, one per output of /table/outputs");
+    for (size_t o = 0; o < k; ++o) {
+      const std::string ot = at + "/outputs/" + std::to_string(o);
+      if (!outs[o].is_object() || !outs[o].contains("float32") || !outs[o]["float32"].is_object())
+        return Status::error(ot + "/float32: must be an object of the output's metrics");
+      for (const char* key : {"name", "expression"})
+        if (outs[o].contains(key) && !outs[o][key].is_string())
+          return Status::error(ot + "/" + key + ": must be a string");
+    }
   }
   return Status::ok();
 }

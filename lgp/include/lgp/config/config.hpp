@@ -267,6 +267,11 @@ struct RunConfig {
   std::filesystem::path base_dir;  // directory of the config file (for relative data paths)
 
   Status validate() const;
+  // The bounds that depend on the table's output count (validate() applies them where
+  // data.outputs lists the outputs; every table source applies them once the table is known):
+  // under linear scaling max_length + outputs * genes <= 255 opcodes and constants +
+  // outputs * (genes + 1) <= 255 slots, so that register and constant indices fit a byte.
+  Status validateShape(size_t num_outputs) const;
   ProgramShape shape(int num_inputs, int num_outputs) const;
   CostModel costModel() const;
   DiscontinuityModel discontinuityModel() const;

@@ -13,6 +13,7 @@ inline constexpr float kHalfDivGuard = 6.103515625e-05f;  // 2^-14
 inline constexpr float kHalfMinPos = 6.103515625e-05f;    // 2^-14
 inline constexpr float kHalfExpClamp = 15.0f;
 inline constexpr float kHalfMax = 65504.0f;
+inline constexpr float kHalfMinSubnormal = 5.9604644775390625e-08f;  // 2^-24
 
 // Nearest binary16 value (ties to even), as a float; overflow gives +-inf, NaN stays NaN.
 float roundToHalf(float x);
