@@ -592,7 +592,7 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
   for (const auto& l : opts.header_lines) line(l);
   if (lang == Language::Glsl && opts.precision == Precision::Half)
     line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
-  if (const std::string w = halfOverflowWarning(out); !w.empty()) line("Warning: " + w);
+  if (const std::string w = halfRangeWarning(out); !w.empty()) line("Warning: " + w);
   if (lang == Language::Cpp && opts.exact_math)
     line(
         "Exact math: bit-identical to the lgp float32 interpreter (compile with "
@@ -602,14 +602,23 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
 
 }  // namespace
 
-std::string halfOverflowWarning(const Emitted& e) {
-  if (e.half_overflow.empty()) return "";
-  std::string cs;
-  for (size_t i = 0; i < e.half_overflow.size(); ++i)
-    cs += (i ? ", " : "") + formatFloat(static_cast<float>(e.half_overflow[i]));
-  return "constant" + std::string(e.half_overflow.size() > 1 ? "s " : " ") + cs +
-         " beyond binary16's range (" + formatFloat(kHalfMax) +
-         "): infinite in half, so this member does not suit a half export (use float)";
+std::string halfRangeWarning(const Emitted& e) {
+  auto list = [](const std::vector<double>& v) {
+    std::string cs;
+    for (size_t i = 0; i < v.size(); ++i)
+      cs += (i ? ", " : "") + formatFloat(static_cast<float>(v[i]));
+    return "constant" + std::string(v.size() > 1 ? "s " : " ") + cs;
+  };
+  std::string w;
+  if (!e.half_overflow.empty())
+    w = list(e.half_overflow) + " beyond binary16's range (" + formatFloat(kHalfMax) +
+        "): infinite in half";
+  if (!e.half_underflow.empty())
+    w += (w.empty() ? "" : "; ") + list(e.half_underflow) +
+         " below binary16's smallest subnormal (" + formatFloat(kHalfMinSubnormal) +
+         "): 0 in half";
+  if (w.empty()) return "";
+  return w + ", so this member does not suit a half export (use float)";
 }
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts) {
@@ -632,10 +641,12 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
     SimplifyOptions scored = so;
     scored.precision = Precision::Float;
     dag = simplify(dag, scored);
-    for (const Node& n : dag.nodes)
-      if (n.isConst() && std::isfinite(n.value) &&
-          !std::isfinite(roundToHalf(static_cast<float>(n.value))))
-        out.half_overflow.push_back(n.value);
+    for (const Node& n : dag.nodes) {
+      if (!n.isConst() || !std::isfinite(n.value)) continue;
+      const float h = roundToHalf(static_cast<float>(n.value));
+      if (!std::isfinite(h)) out.half_overflow.push_back(n.value);
+      if (h == 0.0f && n.value != 0.0) out.half_underflow.push_back(n.value);
+    }
   }
   out.dag = simplify(dag, so);
   out.formula = printFormula(out.dag, in.input_names, in.output_names).text();

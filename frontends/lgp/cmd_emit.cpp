@@ -284,7 +284,7 @@ int emitMain(int argc, char** argv) {
   auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, *eo)
                                     : lgp::emit::emitMeasured(*in, *lang, *eo);
   if (!e) return fail(e.error());
-  if (const std::string w = lgp::emit::halfOverflowWarning(*e); !w.empty())
+  if (const std::string w = lgp::emit::halfRangeWarning(*e); !w.empty())
     std::fprintf(stderr, "warning: member %zu: %s\n", *member, w.c_str());
   if (auto st = writeCode(args, e->code); !st) return fail(st.message());
   if (args.count("verify"))

@@ -252,6 +252,21 @@ TEST(EmitDag, HalfKeepsOnlyWhatTheScoredProgramComputes) {
               half)
         << e->code;
   }
+  // Hardening round 4, F13: a constant below binary16's smallest subnormal became 0.0h without
+  // the warning a large one gets.
+  p.code[2] = Instr{Op::Mul, {inputOperand(1), constOperand(0)}};  // r*1e-9
+  p.constants[0] = 1e-9f;
+  in.program = p;
+  EmitOptions o;
+  o.precision = Precision::Half;
+  auto e = emitProgram(in, Language::Hlsl, o);
+  ASSERT_TRUE(e.hasValue()) << e.error();
+  EXPECT_EQ(e->half_underflow, std::vector<double>{1e-9f});
+  EXPECT_NE(e->code.find("constant 1e-09 below binary16's smallest subnormal (5.9604645e-08): 0 "
+                         "in half"),
+            std::string::npos)
+      << e->code;
+  EXPECT_NE(halfRangeWarning(*e).find("does not suit a half export"), std::string::npos);
 }
 
 }  // namespace

@@ -95,15 +95,17 @@ struct Emitted {
   // its cost leaves the formula's own (gpu_cost.hpp).
   std::string io_baseline;
   // Half precision: the constants of the code (as scored, in float32) beyond binary16's range,
-  // which are infinite in it; the header says so, and the member does not suit a half export.
+  // which are infinite in it, and the non-zero ones below its smallest subnormal, which are 0
+  // in it; the header says so, and the member does not suit a half export.
   std::vector<double> half_overflow;
+  std::vector<double> half_underflow;
 };
 
 Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOptions& opts);
 
-// The warning about `half_overflow` that the header carries and `lgp emit` prints ("" when
-// there is none).
-std::string halfOverflowWarning(const Emitted& e);
+// The warning about `half_overflow` and `half_underflow` that the header carries and
+// `lgp emit` prints ("" when there is none).
+std::string halfRangeWarning(const Emitted& e);
 
 // A program fitted on `t`: its input and output names and domain (no transforms, no metrics).
 EmitInput emitInputForTable(const Program& p, const Table& t);
