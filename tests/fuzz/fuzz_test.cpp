@@ -1027,4 +1027,172 @@ TEST_F(FuzzDaemon, RoundThreeStoredStateRegressions) {
   EXPECT_EQ(r.j()["runs"].size(), 1u) << r.body;
 }
 
+// --- Hardening round 4: each finding's input, replayed with the outcome it must have. --------
+// (F2 and lgp.fit's cache_dir "-" are also Python's and the daemon's own tests; F5's needs a
+// Vulkan driver: tests/emit/vulkan_run_test.cpp.)
+
+// A table of `outputs` outputs y0.. over inputs x, y (lgp-table/1).
+nlohmann::json wideOutputs(int outputs, int rows = 32) {
+  nlohmann::json t = jsonTable({"x", "y"}, rows);
+  t["outputs"] = nlohmann::json::array();
+  for (int k = 0; k < outputs; ++k) {
+    const std::string n = "y" + std::to_string(k);
+    t["outputs"].push_back(n);
+    t["columns"][n] = t["columns"]["f"];
+  }
+  t["columns"].erase("f");
+  return t;
+}
+
+TEST_F(Fuzz, RoundFourCliRegressions) {
+  const fs::path d = dir_->path();
+  std::string out;
+  // F3: 17 outputs x 16 genes with the outputs unlisted: a misleading float32 error, or exit 0
+  // with a member whose claimed error was not its own. Refused, naming program.genes.
+  std::ofstream(d / "wide17.json") << wideOutputs(17).dump();
+  nlohmann::json genes = {{"data", {{"path", (d / "wide17.json").string()}}},
+                          {"program", {{"genes", 16}, {"max_length", 8}, {"constants", 0}}},
+                          {"search",
+                           {{"population", 16}, {"generations", 2}, {"threads", 1},
+                            {"linear_scaling", true}}},
+                          {"output", {{"front_json", (d / "g.json").string()}, {"front_csv", ""}}}};
+  EXPECT_EQ(cli({"run", file("genes.json", genes.dump()).string(), "-q"}, d, &out), 2) << out;
+  EXPECT_NE(out.find("/program/genes: outputs * genes must be <= 255 (17 outputs x 16 genes)"),
+            std::string::npos)
+      << out;
+  // F7, F8, F9: generated values at the domain's edges.
+  std::ofstream(d / "edges.json") << R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["F_dielectric"], "grid": {"mu": {"values": [0, 1e-12, 1e-9, 1e-8, 0.5]},
+    "eta": {"values": [1]}}})";
+  ASSERT_EQ(cli({"data", (d / "edges.json").string(), "-o", (d / "edges.t.json").string(),
+                 "--no-cache", "-q"},
+                d, &out),
+            0)
+      << out;
+  auto edges = nlohmann::json::parse(std::ifstream(d / "edges.t.json"));
+  for (const auto& v : edges["columns"]["F_dielectric"]) EXPECT_EQ(v.get<double>(), 0.0) << out;
+  std::ofstream(d / "sheen0.json") << R"({"material": {"roughness": "linear"},
+    "outputs": ["E_sheen"], "grid": {"mu": {"values": [0, 0.5]}, "r": {"values": [1e-30, 0.5]}}})";
+  ASSERT_EQ(cli({"data", (d / "sheen0.json").string(), "-o", (d / "sheen0.t.json").string(),
+                 "--no-cache", "-q"},
+                d, &out),
+            0)
+      << out;
+  auto sheen = nlohmann::json::parse(std::ifstream(d / "sheen0.t.json"));
+  EXPECT_GT(sheen["columns"]["E_sheen"][0].get<double>(), 1e14) << out;  // ~1/sqrt(2 pi 1e-30)
+  std::ofstream(d / "tiny.json") << R"({"material": {"roughness": "linear"},
+    "outputs": ["E_sheen"], "grid": {"mu": {"values": [5e-324, 0.5]},
+    "r": {"values": [5e-324, 0.5]}}})";
+  EXPECT_EQ(cli({"data", (d / "tiny.json").string(), "-o", (d / "tiny.t.json").string(),
+                 "--no-cache", "-q"},
+                d, &out),
+            1)
+      << out;
+  EXPECT_NE(out.find("E_sheen at mu=5e-324, r=5e-324 (row 1)"), std::string::npos) << out;
+  // F11: thousands of threads under an address-space limit ended the process.
+  const std::string limited = "ulimit -v 4000000; '" + std::string(LGP_CLI_BIN) + "' data '" +
+                              (d / "edges.json").string() + "' -o '" +
+                              (d / "edges.t2.json").string() + "' --no-cache -q --threads 3000";
+  EXPECT_EQ(runProgram({"/bin/sh", "-c", limited}, &out, d / "sh.log", 120), 0) << out;
+  // F12: a checkpoint whose archive claims an error its program does not score.
+  nlohmann::json run = seedConfig(table_);
+  run["search"]["generations"] = 3;
+  run["search"]["population"] = 16;
+  run["output"] = {{"front_json", (d / "front.json").string()}, {"front_csv", ""}};
+  const fs::path cfg = file("run4.json", run.dump());
+  const std::string ck = (d / "ck4.json").string();
+  ASSERT_EQ(cli({"run", cfg.string(), "-q", "--checkpoint", ck}, d, &out), 0) << out;
+  nlohmann::json state = nlohmann::json::parse(std::ifstream(ck));
+  state["archive"][0]["obj"][0] = 1e-12;
+  std::ofstream(ck) << state.dump();
+  EXPECT_EQ(cli({"run", cfg.string(), "-q", "--checkpoint", ck, "--resume", "--generations", "6"},
+                d, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("archive member 0 claims error 1e-12"), std::string::npos) << out;
+  // F13: a member without its float32 metrics (a raw JSON exception), an output index of 2^32
+  // (read as 0).
+  nlohmann::json front = nlohmann::json::parse(std::ifstream(d / "front.json"));
+  nlohmann::json bad = front;
+  bad["members"][0]["outputs"][0].erase("float32");
+  EXPECT_EQ(cli({"front", file("nof32.json", bad.dump()).string()}, d, &out), 2) << out;
+  EXPECT_NE(out.find("/members/0/outputs/0/float32: must be an object"), std::string::npos)
+      << out;
+  EXPECT_EQ(out.find("json.exception"), std::string::npos) << out;
+  bad = front;
+  bad["members"][0]["program"]["outputs"] = {4294967296ULL};
+  EXPECT_EQ(cli({"emit", file("out32.json", bad.dump()).string(), "--member", "0", "--no-measure"},
+                d, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("(got 4294967296)"), std::string::npos) << out;
+  // F6: a front's config named where its scene's table is cached, and its scene was generated
+  // before its columns were checked.
+  std::ofstream(d / "qs_scene.json") << R"({"outputs": ["A", "B"],
+    "material": {"fresnel": {"model": "schlick", "f90": 1}},
+    "grid": {"mu": {"count": 6}, "r": {"count": 6}}})";
+  nlohmann::json sfront = front;
+  sfront["config"]["data"] = {{"scene", (d / "qs_scene.json").string()},
+                              {"cache_dir", (d / "named" / "by" / "front").string()}};
+  EXPECT_EQ(cli({"emit", file("sfront.json", sfront.dump()).string(), "--member", "0", "--snap",
+                 "--no-measure"},
+                d, &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("no column named 'x' (input)"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(d / "named"));
+}
+
+TEST_F(FuzzDaemon, RoundFourBodyRegressions) {
+  const nlohmann::json seed = seedConfig(table_);
+  // F1: a cache directory named by the request.
+  nlohmann::json cache = seed;
+  std::ofstream(dir_->path() / "favg.json") << R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["F_avg"], "grid": {"eta": {"count": 8, "range": [1, 2]}}})";
+  cache["data"] = {{"scene", (dir_->path() / "favg.json").string()},
+                   {"cache_dir", (dir_->path() / "outside" / "created").string()}};
+  Reply r = daemon_->post("/api/v1/runs", cache.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/data/cache_dir") << r.body;
+  EXPECT_FALSE(fs::exists(dir_->path() / "outside"));
+  // F3: an inline table of 17 outputs with 16 genes each.
+  nlohmann::json genes = {{"data", {{"table", wideOutputs(17)}}},
+                          {"program", {{"genes", 16}, {"max_length", 8}, {"constants", 0}}},
+                          {"search",
+                           {{"population", 16}, {"generations", 2}, {"threads", 1},
+                            {"linear_scaling", true}}}};
+  r = daemon_->post("/api/v1/runs", genes.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/program/genes") << r.body;
+  // F4: 15 outputs x 16 genes priced at max_length (15 opcodes) instead of the shape's 255:
+  // 100,000 programs over the 1 GiB bound were accepted.
+  nlohmann::json memory = {{"data", {{"table", wideOutputs(15)}}},
+                           {"program", {{"genes", 16}, {"max_length", 15}, {"constants", 0}}},
+                           {"search",
+                            {{"population", 100000}, {"generations", 1}, {"threads", 1},
+                             {"linear_scaling", true}}}};
+  r = daemon_->post("/api/v1/runs", memory.dump());
+  EXPECT_EQ(r.status, 400) << r.body;
+  EXPECT_EQ(r.j().value("field", ""), "/search/population") << r.body;
+  EXPECT_NE(r.body.find("programs of up to 255 opcodes"), std::string::npos) << r.body;
+  // F2: a scene that takes minutes, deleted while it is generated: the daemon is idle again
+  // at once (the next run finishes within its own seconds, not after the scene).
+  std::ofstream(dir_->path() / "slow.json") << R"({"material": {"fresnel": {"model": "dielectric"}},
+    "outputs": ["E_dielectric"],
+    "grid": {"mu": {"count": 40}, "r": {"count": 40}, "eta": {"count": 40, "range": [1.1, 2.5]}}})";
+  nlohmann::json slow = {{"data", {{"scene", (dir_->path() / "slow.json").string()}}},
+                         {"search", {{"population", 16}, {"generations", 2}, {"threads", 1}}}};
+  const std::string id = daemon_->submit(slow, &r);
+  ASSERT_FALSE(id.empty()) << r.body;
+  for (int i = 0; i < 200 && daemon_->log().find("run " + id + ": loading") == std::string::npos;
+       ++i)
+    sleepMs(50);
+  EXPECT_EQ(daemon_->del("/api/v1/runs/" + id).status, 200);
+  nlohmann::json quick = seed;
+  quick["search"]["generations"] = 2;
+  const std::string next = daemon_->submit(quick, &r);
+  ASSERT_FALSE(next.empty()) << r.body;
+  EXPECT_EQ(daemon_->waitDone(next, 30).value("status", ""), "finished") << daemon_->log();
+}
+
 }  // namespace
