@@ -331,8 +331,10 @@ TEST_F(Hardening, MeanRelWeightsBeyondFloat32AreRefused) {
   EXPECT_TRUE(contains(r.out, "raise /objectives/rel_floor")) << r.out;
 }
 
-// A run whose front is empty (here: resumed from a finished checkpoint whose archive and
-// population were emptied of finite errors) fails with a reason and writes no front.
+// A run whose front is empty (here: resumed from a finished checkpoint whose archive was
+// emptied and whose population computes 3e38 * 3e38, infinite in float32) fails with a reason
+// and writes no front. (The checkpoint scores each program again: its errors must be the
+// programs' own.)
 TEST_F(Hardening, EmptyFrontIsAnErrorNotExitZero) {
   auto cfg = base();
   cfg["output"]["checkpoint"] = (dir / "ck.json").string();
@@ -346,7 +348,12 @@ TEST_F(Hardening, EmptyFrontIsAnErrorNotExitZero) {
   }
   ck["archive"] = nlohmann::json::array();
   for (auto& isl : ck["islands"])
-    for (auto& ind : isl["population"]) ind["obj"][0] = nullptr;  // error: not finite
+    for (auto& ind : isl["population"]) {
+      ind["program"]["code"] = nlohmann::json::array({{"mul", "c0", "c0"}});
+      ind["program"]["constants"][0] = 3e38;
+      ind["program"]["outputs"] = {0};
+      ind["obj"][0] = nullptr;  // error: not finite, as the program scores
+    }
   std::ofstream(dir / "ck.json") << ck.dump();
   write("c.json", cfg.dump());
   const auto r = sh("timeout 60 " + lgp() + " run " + (dir / "c.json").string() + " -q --resume");
