@@ -1,6 +1,9 @@
 // `lgp data scene.json -o table.json`: generate a ground-truth table (datasets/) for a scene,
 // through the cache, and write it as lgp-table/1 JSON (or CSV plus a .meta.json), optionally
 // with SVG heatmaps and slices of every output.
+#include <omp.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cxxopts.hpp>
@@ -43,6 +46,9 @@ int dataMain(int argc, char** argv) {
   }
   ds::GenerateOptions gopt;
   gopt.threads = args["threads"].as<int>();
+  if (const int cores = std::max(1, omp_get_num_procs()); gopt.threads > cores)
+    std::fprintf(stderr, "warning: --threads: %d capped at the %d cores this process may use\n",
+                 gopt.threads, cores);
   const bool quiet = args.count("quiet") > 0;
   const auto t0 = std::chrono::steady_clock::now();
   ds::GeneratedTable table;
