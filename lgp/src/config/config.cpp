@@ -48,7 +48,7 @@ std::string_view toString(MigrationMode m) {
 std::vector<Op> defaultOps() {
   std::vector<Op> ops;
   for (const auto& i : allOps())
-    if (i.op != Op::Sin && i.op != Op::Cos) ops.push_back(i.op);
+    if (i.default_set) ops.push_back(i.op);
   return ops;
 }
 
@@ -861,9 +861,11 @@ nlohmann::json toJson(const RunConfig& c) {
             {"checkpoint_interval_s", c.output.checkpoint_interval_s}}},
           {"mpi", {{"np", c.mpi.np}, {"migration", std::string(toString(c.mpi.migration))}}},
           {"references", c.references}};
-  // Written only where set, so that the digests of configs without it stay as they were.
+  // The rule for every field (tests/core/config_roundtrip_test.cpp holds each to it): toJson
+  // writes it, so that the config round-trips and the checkpoint digest sees it; a field added
+  // after checkpoints were written may be left out where it holds its default (absence reads
+  // back as that default), so that those checkpoints still resume.
   if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
-  // Always written: their defaults are not 0 / empty, so leaving 0 out would not round-trip.
   out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
   out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
   if (c.search.islands.topology != MigrationTopology::Ring)

@@ -548,7 +548,14 @@ class Simplifier {
         case Op::Select:
           r = nonNegSigned(a[2]) && nonNegSigned(a[3]);
           break;
-        default:
+        case Op::Sub:  // may be negative, or -0 (x - x is +0, but -0 - +0 is -0)
+        case Op::Neg:
+        case Op::Rcp:
+        case Op::Log2:
+        case Op::Log:
+        case Op::Sin:
+        case Op::Cos:
+        case Op::Lerp:
           break;
       }
     }
@@ -679,7 +686,16 @@ class Simplifier {
         if (dom && x.hi <= y.lo) return a[3];  // NaN -> d as well
         break;
       }
-      default:
+      case Op::Rcp:  // no rewrite of their own (constant operands are folded before)
+      case Op::Sqrt:
+      case Op::Rsqrt:
+      case Op::Exp2:
+      case Op::Log2:
+      case Op::Exp:
+      case Op::Log:
+      case Op::Sin:
+      case Op::Cos:
+      case Op::Lerp:
         break;
     }
     return -1;
@@ -725,7 +741,17 @@ static std::vector<uint8_t> zeroSignReachesDivisor(const Dag& d, const std::vect
         case Op::Select:
           s = k >= 2 && sens[i];
           break;
-        default:  // abs, square, saturate, sqrt, rsqrt, exp2, exp, log2, log, pow, cos
+        case Op::Abs:  // the same value for +0 and -0
+        case Op::Square:
+        case Op::Saturate:
+        case Op::Sqrt:
+        case Op::Rsqrt:
+        case Op::Exp2:
+        case Op::Exp:
+        case Op::Log2:
+        case Op::Log:
+        case Op::Pow:
+        case Op::Cos:
           break;
       }
       if (s) sens[c.args[k]] = 1;

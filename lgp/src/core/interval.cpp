@@ -221,25 +221,15 @@ Interval opInterval(Op op, const Interval* args) {
   const int n = arity(op);
   const Interval r = rawInterval(op, args[0], n > 1 ? args[1] : none, n > 2 ? args[2] : none,
                                  n > 3 ? args[3] : none);
-  switch (op) {
-    case Op::Exp2:
-    case Op::Log2:
-    case Op::Exp:
-    case Op::Log:
-    case Op::Pow:
-    case Op::Sin:
-    case Op::Cos:
+  switch (opInfo(op).rounding) {
+    case OpRounding::Approx:
       return widen(r);  // polynomial approximations in the interpreter
-    case Op::Neg:
-    case Op::Abs:
-    case Op::Min:
-    case Op::Max:
-    case Op::Saturate:
-    case Op::Select:
+    case OpRounding::Exact:
       return r;  // one operand's value (or 0, 1) exactly: nothing to round
-    default:
+    case OpRounding::Rounded:
       return widenExact(r);
   }
+  return widen(r);
 }
 
 bool branchMaySwitch(Op op, const Interval* a) {
@@ -253,9 +243,27 @@ bool branchMaySwitch(Op op, const Interval* a) {
       return !(dominatesBelow(a[0], a[1]) || dominatesBelow(a[1], a[0]));
     case Op::Select:  // a > b ? c : d
       return !((!a[0].nan && !a[1].nan && a[0].lo > a[1].hi) || dominatesBelow(a[0], a[1]));
-    default:
+    case Op::Add:  // no branch
+    case Op::Sub:
+    case Op::Mul:
+    case Op::Div:
+    case Op::Mad:
+    case Op::Neg:
+    case Op::Rcp:
+    case Op::Sqrt:
+    case Op::Rsqrt:
+    case Op::Square:
+    case Op::Exp2:
+    case Op::Log2:
+    case Op::Exp:
+    case Op::Log:
+    case Op::Pow:
+    case Op::Sin:
+    case Op::Cos:
+    case Op::Lerp:
       return false;
   }
+  return true;
 }
 
 bool provenUnguarded(Op op, const Interval* args) {
@@ -289,9 +297,20 @@ bool provenUnguarded(Op op, const Interval* args) {
     case Op::Min:
     case Op::Max:  // the C++ helpers order NaN like the interpreter; raw std::min does not
       return !a.nan && !args[1].nan;
-    default:
+    case Op::Add:  // no protected branch
+    case Op::Sub:
+    case Op::Mul:
+    case Op::Mad:
+    case Op::Neg:
+    case Op::Square:
+    case Op::Sin:
+    case Op::Cos:
+    case Op::Abs:
+    case Op::Lerp:
+    case Op::Select:
       return true;
   }
+  return false;
 }
 
 void programIntervals(const Program& p, const std::vector<Interval>& domain,

@@ -122,13 +122,27 @@ int branch(Op op, double a, double b) {
     case Op::Log:
     case Op::Pow:
       return a > static_cast<double>(kMinPos);
-    default:
+    case Op::Select:  // never enumerated (four operands; see the operator list below)
+    case Op::Add:
+    case Op::Sub:
+    case Op::Mul:
+    case Op::Div:
+    case Op::Mad:
+    case Op::Neg:
+    case Op::Rcp:
+    case Op::Square:
+    case Op::Exp2:
+    case Op::Exp:
+    case Op::Sin:
+    case Op::Cos:
+    case Op::Lerp:
       return -1;
   }
+  return -1;
 }
 
 bool commutative(Op op) {
-  return op == Op::Add || op == Op::Mul || op == Op::Min || op == Op::Max;
+  return opInfo(op).commutative;
 }
 
 // The enumeration, de-duplicated by value: every tree is evaluated (double, the interpreter's

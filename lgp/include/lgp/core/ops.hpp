@@ -61,63 +61,83 @@ struct CostExtras {
 inline constexpr std::array<CostExtras, kNumCostTargets> kCostExtras = {
     {{0.25, 0.25, 0.5}, {0, 0, 0}, {0.25, 0, 0.25}, {0.25, 0.25, 0.5}, {0, 0, 0}}};
 
-// X(Enum, name, arity, piecewise, guarded, cost {generic, nvidia, gcn, rdna, cpu}, guard cost
-//   {same targets}, infix, hlsl, glsl, cpp)
+// How far the interpreter's float32 result of an operator may lie from its exact value on the
+// same operands, for the interval analysis (core/interval.hpp): Exact (the value of an operand
+// or a constant: nothing is rounded), Rounded (one IEEE rounding per arithmetic step), Approx
+// (the polynomial approximations of eval/vecmath.hpp: a few ulp).
+enum class OpRounding : uint8_t { Exact, Rounded, Approx };
+
+// X(Enum, name, arity, piecewise, guarded, default_set, commutative, rounding, cost {generic,
+//   nvidia, gcn, rdna, cpu}, guard cost {same targets}, infix, hlsl, glsl, cpp)
 // cost: the operator's price per DAG node; guard cost: what its protected branch adds where
 // interval analysis cannot prove it unreachable on the table's domain (cost_model.hpp).
 // piecewise: the operator has a branch (counts towards discontinuity unless the interval
 // analysis proves the branch never switches on the table's domain). guarded: the operator has a
 // protected branch (guard, floor, clamp, or saturate's NaN -> 0) that the emitters reproduce
-// with a helper unless it is proven unreachable. Templates use {0}..{3} for operands. `infix`
-// is the function-call spelling the parser accepts (the formula printer, core/formula.hpp,
-// prints arithmetic with operators instead); it names protected functions by their op name.
+// with a helper unless it is proven unreachable. default_set: in the operators a config that
+// names none searches (config.hpp defaultOps). commutative: op(a, b) = op(b, a) for every
+// operand (the exhaustive enumeration keeps one order). rounding: OpRounding above. Templates
+// use {0}..{3} for operands. `infix` is the function-call spelling the parser accepts (the
+// formula printer, core/formula.hpp, prints arithmetic with operators instead); it names
+// protected functions by their op name.
+//
+// Besides this row, an operator is described once in each place that a switch over Op with no
+// `default:` (or an `if constexpr` chain ending in a static_assert) makes the compiler name:
+// its semantics and partial derivatives (eval/semantics.hpp), interval rules
+// (core/interval.cpp), binary16 semantics (core/half.cpp), sign-of-zero and rewrite facts
+// (core/expr.cpp), the enumeration's branch sides (search/exhaustive.cpp) and the emitters'
+// helpers (emit/src/emit.cpp). tests/core/registry_coverage_test.cpp checks them all for every
+// operator (CONTRIBUTING.md, "Adding an operator").
 #define LGP_OPS(X)                                                                                 \
-  X(Add, "add", 2, false, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "({0} + {1})", "({0} + {1})",   \
-    "({0} + {1})", "({0} + {1})")                                                                  \
-  X(Sub, "sub", 2, false, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "({0} - {1})", "({0} - {1})",   \
-    "({0} - {1})", "({0} - {1})")                                                                  \
-  X(Mul, "mul", 2, false, false, (0.75, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "({0} * {1})",         \
-    "({0} * {1})", "({0} * {1})", "({0} * {1})")                                                   \
-  X(Div, "div", 2, false, true, (1.75, 5, 1.5, 1.5, 4), (5.5, 0, 6.5, 4.75, 0), "({0} / {1})",     \
-    "({0} / {1})", "({0} / {1})", "({0} / {1})")                                                   \
-  X(Mad, "mad", 3, false, false, (1.25, 1, 1.25, 1.25, 1), (0, 0, 0, 0, 0), "mad({0}, {1}, {2})",  \
-    "mad({0}, {1}, {2})", "({0} * {1} + {2})", "({0} * {1} + {2})")                                \
-  X(Neg, "neg", 1, false, false, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0), "(-{0})", "(-{0})",      \
-    "(-{0})", "(-{0})")                                                                            \
-  X(Rcp, "rcp", 1, false, true, (0.75, 4, 0.75, 0.75, 4), (5.5, 0, 6.5, 4.75, 0), "rcp({0})",      \
-    "rcp({0})", "(1.0 / {0})", "(1.0f / {0})")                                                     \
-  X(Sqrt, "sqrt", 1, false, true, (1, 8, 0.75, 0.75, 4), (2, 0, 2, 1.75, 0), "sqrt({0})",          \
-    "sqrt({0})", "sqrt({0})", "std::sqrt({0})")                                                    \
-  X(Rsqrt, "rsqrt", 1, false, true, (1, 4, 0.75, 0.75, 5), (2, 0, 2.5, 1.75, 0), "rsqrt({0})",     \
-    "rsqrt({0})", "inversesqrt({0})", "(1.0f / std::sqrt({0}))")                                   \
-  X(Square, "square", 1, false, false, (1, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "square({0})",      \
-    "({0} * {0})", "({0} * {0})", "({0} * {0})")                                                   \
-  X(Exp2, "exp2", 1, false, true, (0.75, 4, 0.75, 0.75, 8), (4.5, 0, 5.5, 4, 0), "exp2({0})",      \
-    "exp2({0})", "exp2({0})", "std::exp2({0})")                                                    \
-  X(Log2, "log2", 1, false, true, (0.5, 4, 0.5, 0.5, 8), (2.75, 0, 3.5, 2.5, 0), "log2({0})",      \
-    "log2({0})", "log2({0})", "std::log2({0})")                                                    \
-  X(Exp, "exp", 1, false, true, (1.75, 5, 1.5, 1.5, 9), (3.25, 0, 3.75, 2.75, 0), "exp({0})",      \
-    "exp({0})", "exp({0})", "std::exp({0})")                                                       \
-  X(Log, "log", 1, false, true, (2, 5, 1.75, 1.75, 9), (2.25, 0, 2.75, 2, 0), "log({0})",          \
-    "log({0})", "log({0})", "std::log({0})")                                                       \
-  X(Pow, "pow", 2, false, true, (2.75, 9, 2.25, 2.5, 17), (7.25, 0, 9, 6.25, 0), "pow({0}, {1})",  \
-    "pow({0}, {1})", "pow({0}, {1})", "std::pow({0}, {1})")                                        \
-  X(Sin, "sin", 1, false, false, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0), "sin({0})", "sin({0})",  \
-    "sin({0})", "std::sin({0})")                                                                   \
-  X(Cos, "cos", 1, false, false, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0), "cos({0})", "cos({0})",  \
-    "cos({0})", "std::cos({0})")                                                                   \
-  X(Min, "min", 2, true, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "min({0}, {1})",                 \
-    "min({0}, {1})", "min({0}, {1})", "std::min({0}, {1})")                                        \
-  X(Max, "max", 2, true, false, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0), "max({0}, {1})",                 \
-    "max({0}, {1})", "max({0}, {1})", "std::max({0}, {1})")                                        \
-  X(Abs, "abs", 1, true, false, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0), "abs({0})", "abs({0})",   \
-    "abs({0})", "std::fabs({0})")                                                                  \
-  X(Saturate, "saturate", 1, true, true, (0.5, 0, 0.5, 0.25, 2), (0, 0, 0, 0, 0), "saturate({0})", \
-    "saturate({0})", "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                        \
-  X(Lerp, "lerp", 3, false, false, (1.25, 2, 1.25, 1.25, 2), (0, 0, 0, 0, 0),                      \
-    "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", "mix({0}, {1}, {2})",                            \
+  X(Add, "add", 2, false, false, true, true, Rounded, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),            \
+    "({0} + {1})", "({0} + {1})", "({0} + {1})", "({0} + {1})")                                    \
+  X(Sub, "sub", 2, false, false, true, false, Rounded, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),           \
+    "({0} - {1})", "({0} - {1})", "({0} - {1})", "({0} - {1})")                                    \
+  X(Mul, "mul", 2, false, false, true, true, Rounded, (0.75, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0),   \
+    "({0} * {1})", "({0} * {1})", "({0} * {1})", "({0} * {1})")                                    \
+  X(Div, "div", 2, false, true, true, false, Rounded, (1.75, 5, 1.5, 1.5, 4),                      \
+    (5.5, 0, 6.5, 4.75, 0), "({0} / {1})", "({0} / {1})", "({0} / {1})", "({0} / {1})")            \
+  X(Mad, "mad", 3, false, false, true, false, Rounded, (1.25, 1, 1.25, 1.25, 1), (0, 0, 0, 0, 0),  \
+    "mad({0}, {1}, {2})", "mad({0}, {1}, {2})", "({0} * {1} + {2})", "({0} * {1} + {2})")          \
+  X(Neg, "neg", 1, false, false, true, false, Exact, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0),      \
+    "(-{0})", "(-{0})", "(-{0})", "(-{0})")                                                        \
+  X(Rcp, "rcp", 1, false, true, true, false, Rounded, (0.75, 4, 0.75, 0.75, 4),                    \
+    (5.5, 0, 6.5, 4.75, 0), "rcp({0})", "rcp({0})", "(1.0 / {0})", "(1.0f / {0})")                 \
+  X(Sqrt, "sqrt", 1, false, true, true, false, Rounded, (1, 8, 0.75, 0.75, 4), (2, 0, 2, 1.75, 0), \
+    "sqrt({0})", "sqrt({0})", "sqrt({0})", "std::sqrt({0})")                                       \
+  X(Rsqrt, "rsqrt", 1, false, true, true, false, Rounded, (1, 4, 0.75, 0.75, 5),                   \
+    (2, 0, 2.5, 1.75, 0), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})",                          \
+    "(1.0f / std::sqrt({0}))")                                                                     \
+  X(Square, "square", 1, false, false, true, false, Rounded, (1, 1, 0.75, 0.75, 1),                \
+    (0, 0, 0, 0, 0), "square({0})", "({0} * {0})", "({0} * {0})", "({0} * {0})")                   \
+  X(Exp2, "exp2", 1, false, true, true, false, Approx, (0.75, 4, 0.75, 0.75, 8),                   \
+    (4.5, 0, 5.5, 4, 0), "exp2({0})", "exp2({0})", "exp2({0})", "std::exp2({0})")                  \
+  X(Log2, "log2", 1, false, true, true, false, Approx, (0.5, 4, 0.5, 0.5, 8),                      \
+    (2.75, 0, 3.5, 2.5, 0), "log2({0})", "log2({0})", "log2({0})", "std::log2({0})")               \
+  X(Exp, "exp", 1, false, true, true, false, Approx, (1.75, 5, 1.5, 1.5, 9),                       \
+    (3.25, 0, 3.75, 2.75, 0), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})")                 \
+  X(Log, "log", 1, false, true, true, false, Approx, (2, 5, 1.75, 1.75, 9), (2.25, 0, 2.75, 2, 0), \
+    "log({0})", "log({0})", "log({0})", "std::log({0})")                                           \
+  X(Pow, "pow", 2, false, true, true, false, Approx, (2.75, 9, 2.25, 2.5, 17),                     \
+    (7.25, 0, 9, 6.25, 0), "pow({0}, {1})", "pow({0}, {1})", "pow({0}, {1})",                      \
+    "std::pow({0}, {1})")                                                                          \
+  X(Sin, "sin", 1, false, false, false, false, Approx, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0),    \
+    "sin({0})", "sin({0})", "sin({0})", "std::sin({0})")                                           \
+  X(Cos, "cos", 1, false, false, false, false, Approx, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0),    \
+    "cos({0})", "cos({0})", "cos({0})", "std::cos({0})")                                           \
+  X(Min, "min", 2, true, false, true, true, Exact, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),               \
+    "min({0}, {1})", "min({0}, {1})", "min({0}, {1})", "std::min({0}, {1})")                       \
+  X(Max, "max", 2, true, false, true, true, Exact, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),               \
+    "max({0}, {1})", "max({0}, {1})", "max({0}, {1})", "std::max({0}, {1})")                       \
+  X(Abs, "abs", 1, true, false, true, false, Exact, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0),       \
+    "abs({0})", "abs({0})", "abs({0})", "std::fabs({0})")                                          \
+  X(Saturate, "saturate", 1, true, true, true, false, Exact, (0.5, 0, 0.5, 0.25, 2),               \
+    (0, 0, 0, 0, 0), "saturate({0})", "saturate({0})", "clamp({0}, 0.0, 1.0)",                     \
+    "std::clamp({0}, 0.0f, 1.0f)")                                                                 \
+  X(Lerp, "lerp", 3, false, false, true, false, Rounded, (1.25, 2, 1.25, 1.25, 2),                 \
+    (0, 0, 0, 0, 0), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", "mix({0}, {1}, {2})",           \
     "({0} + ({1} - {0}) * {2})")                                                                   \
-  X(Select, "select", 4, true, false, (2.25, 2, 2.5, 2, 2), (0, 0, 0, 0, 0),                       \
+  X(Select, "select", 4, true, false, true, false, Exact, (2.25, 2, 2.5, 2, 2), (0, 0, 0, 0, 0),   \
     "select({0}, {1}, {2}, {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})",        \
     "(({0} > {1}) ? {2} : {3})")
 
@@ -137,8 +157,11 @@ struct OpInfo {
   Op op;
   std::string_view name;  // config / JSON / CLI spelling
   int arity;
-  bool piecewise;  // counts towards the discontinuity objective by default
-  bool guarded;    // has a protected branch (see the semantics at the top)
+  bool piecewise;    // counts towards the discontinuity objective by default
+  bool guarded;      // has a protected branch (see the semantics at the top)
+  bool default_set;  // searched when a config names no operators
+  bool commutative;  // op(a, b) = op(b, a)
+  OpRounding rounding;
   std::array<double, kNumCostTargets> cost;        // per target, the operator itself
   std::array<double, kNumCostTargets> guard_cost;  // per target, its guard where it stays
   std::string_view infix;                          // readable form, {0}..{3} placeholders
@@ -150,8 +173,9 @@ struct OpInfo {
 namespace detail {
 #define LGP_X_COST(a, b, c, d, e) \
   { a, b, c, d, e }
-#define LGP_X_INFO(E, NAME, AR, PW, GD, COST, GCOST, INF, HL, GL, CP) \
-  OpInfo{Op::E, NAME, AR, PW, GD, LGP_X_COST COST, LGP_X_COST GCOST, INF, HL, GL, CP},
+#define LGP_X_INFO(E, NAME, AR, PW, GD, DS, CM, RND, COST, GCOST, INF, HL, GL, CP)            \
+  OpInfo{Op::E, NAME, AR, PW, GD, DS, CM, OpRounding::RND, LGP_X_COST COST, LGP_X_COST GCOST, \
+         INF,   HL,   GL, CP},
 inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
 #undef LGP_X_INFO
 #undef LGP_X_COST
