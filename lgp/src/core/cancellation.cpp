@@ -12,71 +12,6 @@ namespace lgp {
 
 namespace {
 
-// Partial derivatives of op at (a, b, c, d) with value v, in the protected double semantics:
-// zero where a guard, floor or clamp holds the result constant.
-std::array<double, kMaxArity> partials(Op op, double a, double b, double c, double d, double v) {
-  const double g = kDivGuard, m = kMinPos, e = kExpClamp;
-  switch (op) {
-    case Op::Add:
-      return {1, 1, 0, 0};
-    case Op::Sub:
-      return {1, -1, 0, 0};
-    case Op::Mul:
-      return {b, a, 0, 0};
-    case Op::Div: {
-      const double gb = sem::guard(b);
-      return {1 / gb, std::fabs(b) < g ? 0 : -a / (b * b), 0, 0};
-    }
-    case Op::Mad:
-      return {b, a, 1, 0};
-    case Op::Neg:
-      return {-1, 0, 0, 0};
-    case Op::Rcp:
-      return {std::fabs(a) < g ? 0 : -1 / (a * a), 0, 0, 0};
-    case Op::Sqrt:
-      return {a > 0 ? 0.5 / std::sqrt(a) : 0, 0, 0, 0};
-    case Op::Rsqrt:
-      return {a > m ? -0.5 * v / a : 0, 0, 0, 0};
-    case Op::Square:
-      return {2 * a, 0, 0, 0};
-    case Op::Exp2:
-      return {std::fabs(a) < e ? v * sem::kLn2 : 0, 0, 0, 0};
-    case Op::Log2:
-      return {a > m ? 1 / (a * sem::kLn2) : 0, 0, 0, 0};
-    case Op::Exp:
-      return {std::fabs(a * sem::kLog2E) < e ? v : 0, 0, 0, 0};
-    case Op::Log:
-      return {a > m ? 1 / a : 0, 0, 0, 0};
-    case Op::Pow: {
-      if (!(a > m)) return {0, 0, 0, 0};
-      const double l = std::log2(a);
-      if (!(std::fabs(b * l) < e)) return {0, 0, 0, 0};
-      return {v * b / a, v * l * sem::kLn2, 0, 0};
-    }
-    case Op::Sin:
-      return {std::cos(a), 0, 0, 0};
-    case Op::Cos:
-      return {-std::sin(a), 0, 0, 0};
-    case Op::Min:
-      return a < b ? std::array<double, kMaxArity>{1, 0, 0, 0}
-                   : std::array<double, kMaxArity>{0, 1, 0, 0};
-    case Op::Max:
-      return a > b ? std::array<double, kMaxArity>{1, 0, 0, 0}
-                   : std::array<double, kMaxArity>{0, 1, 0, 0};
-    case Op::Abs:
-      return {a < 0 ? -1.0 : 1.0, 0, 0, 0};
-    case Op::Saturate:
-      return {a > 0 && a < 1 ? 1.0 : 0.0, 0, 0, 0};
-    case Op::Lerp:
-      return {1 - c, c, b - a, 0};
-    case Op::Select:
-      return a > b ? std::array<double, kMaxArity>{0, 0, 1, 0}
-                   : std::array<double, kMaxArity>{0, 0, 0, 1};
-  }
-  (void)d;
-  return {0, 0, 0, 0};
-}
-
 // d invertTransform(t, v) / dv.
 double inverseSlope(TargetTransform t, double v) {
   switch (t) {
@@ -133,11 +68,12 @@ Cancellation cancellation(const Dag& d, const Table& t,
         if (!nd.isOp()) continue;
         double a[kMaxArity] = {0, 0, 0, 0};
         for (int q = 0; q < arity(nd.op) && q < kMaxArity; ++q) a[q] = val[nd.args[q]];
-        // The rounding inside the op: mad's product, lerp's (b - a)*t.
-        if (nd.op == Op::Mad) e += std::fabs(a[0] * a[1] * adj[i]);
-        if (nd.op == Op::Lerp) e += std::fabs((a[1] - a[0]) * a[2] * adj[i]);
-        const auto p = partials(nd.op, a[0], a[1], a[2], a[3], val[i]);
-        for (int q = 0; q < arity(nd.op) && q < kMaxArity; ++q) adj[nd.args[q]] += adj[i] * p[q];
+        // The derivatives of eval/semantics.hpp, in double, and the rounding inside the op
+        // (mad's product, lerp's (b - a) c).
+        const auto p = sem::partialsDynamic(nd.op, val[i], a[0], a[1], a[2], a[3]);
+        e += std::fabs(p.inner * adj[i]);
+        for (int q = 0; q < arity(nd.op) && q < kMaxArity; ++q)
+          if (p.on[q]) adj[nd.args[q]] += adj[i] * (p.p[q] / p.den);
       }
       const TargetTransform tr = j < transforms.size() ? transforms[j] : TargetTransform{};
       const double y = val[out], result = invertTransform(tr, y);

@@ -15,84 +15,26 @@ namespace {
 
 #define LGP_ALIGNED(p) static_cast<decltype(p)>(__builtin_assume_aligned(p, 64))
 
-// partial * dx when operand J carries a derivative, else nothing. -0.0f is the exact identity
-// of float addition, so an absent term folds away; an absent operand's partial (which may be
-// inf) is never multiplied by a zero derivative, which would give NaN.
+// partial * dx when operand J carries a derivative and the operator takes it at this row, else
+// nothing. -0.0f is the exact identity of float addition, so an absent term folds away; an
+// absent operand's partial (which may be inf) is never multiplied by a zero derivative, which
+// would give NaN.
 template <int M, int J>
-inline float term(float partial, float dx) {
+inline float term(const sem::Partials<float>& q, float dx) {
   if constexpr (((M >> J) & 1) != 0)
-    return partial * dx;
+    return q.on[J] ? q.p[J] * dx : -0.0f;
   else
     return -0.0f;
 }
 
-// d op / d c at one row, given the value v, operands a..d and operand derivatives da..dd.
+// d op / d c at one row, given the value v, operands a..d and operand derivatives da..dd: the
+// partial derivatives of eval/semantics.hpp, summed in operand order (den is 1 but for div).
 template <Op OP, int M>
 inline float derivative(float v, float a, float b, float c, float d, float da, float db, float dc,
                         float dd) {
-  (void)v, (void)a, (void)b, (void)c, (void)d, (void)da, (void)db, (void)dc, (void)dd;
-  constexpr float kGuard = kDivGuard;
-  constexpr float kClamp = kExpClamp;
-  switch (OP) {
-    case Op::Add:
-      return term<M, 0>(1.0f, da) + term<M, 1>(1.0f, db);
-    case Op::Sub:
-      return term<M, 0>(1.0f, da) + term<M, 1>(-1.0f, db);
-    case Op::Mul:
-      return term<M, 0>(b, da) + term<M, 1>(a, db);
-    case Op::Div: {
-      // v = a / g(b): dv = (da - v db) / g(b), without the db term where the guard holds.
-      const float g = sem::guard(b);
-      return (term<M, 0>(1.0f, da) + term<M, 1>(std::fabs(b) < kGuard ? 0.0f : -v, db)) / g;
-    }
-    case Op::Mad:
-      return term<M, 0>(b, da) + term<M, 1>(a, db) + term<M, 2>(1.0f, dc);
-    case Op::Neg:
-      return term<M, 0>(-1.0f, da);
-    case Op::Rcp:
-      return term<M, 0>(std::fabs(a) < kGuard ? 0.0f : -v * v, da);
-    case Op::Sqrt:
-      return term<M, 0>(a > 0.0f ? 0.5f / v : 0.0f, da);
-    case Op::Rsqrt:
-      return term<M, 0>(a > kMinPos ? -0.5f * v / a : 0.0f, da);
-    case Op::Square:
-      return term<M, 0>(a + a, da);
-    case Op::Exp2:
-      return term<M, 0>(std::fabs(a) < kClamp ? v * static_cast<float>(sem::kLn2) : 0.0f, da);
-    case Op::Log2:
-      return term<M, 0>(a > kMinPos ? static_cast<float>(sem::kLog2E) / a : 0.0f, da);
-    case Op::Exp: {
-      const float t = a * static_cast<float>(sem::kLog2E);  // the clamped exponent, as in apply
-      return term<M, 0>(std::fabs(t) < kClamp ? v : 0.0f, da);
-    }
-    case Op::Log:
-      return term<M, 0>(a > kMinPos ? 1.0f / a : 0.0f, da);
-    case Op::Pow: {
-      // v = 2^(b log2 a'): dv/da = v b / a, dv/db = v ln2 log2 a', a' = max(a, kMinPos).
-      const float l = sem::plog2(a);
-      const bool inside = std::fabs(b * l) < kClamp;
-      return term<M, 0>(inside && a > kMinPos ? v * b / a : 0.0f, da) +
-             term<M, 1>(inside ? v * static_cast<float>(sem::kLn2) * l : 0.0f, db);
-    }
-    case Op::Sin:
-      return term<M, 0>(Math<float>::cos(a), da);
-    case Op::Cos:
-      return term<M, 0>(-Math<float>::sin(a), da);
-    case Op::Min:
-      return a < b ? term<M, 0>(1.0f, da) : term<M, 1>(1.0f, db);
-    case Op::Max:
-      return a > b ? term<M, 0>(1.0f, da) : term<M, 1>(1.0f, db);
-    case Op::Abs:
-      return term<M, 0>(a < 0.0f ? -1.0f : 1.0f, da);
-    case Op::Saturate:
-      return term<M, 0>(a > 0.0f && a < 1.0f ? 1.0f : 0.0f, da);
-    case Op::Lerp:
-      // v = a + (b - a) c
-      return term<M, 0>(1.0f - c, da) + term<M, 1>(c, db) + term<M, 2>(b - a, dc);
-    case Op::Select:
-      return a > b ? term<M, 2>(1.0f, dc) : term<M, 3>(1.0f, dd);
-  }
-  return 0.0f;
+  const sem::Partials<float> q = sem::partials<OP, float>(v, a, b, c, d);
+  return (((term<M, 0>(q, da) + term<M, 1>(q, db)) + term<M, 2>(q, dc)) + term<M, 3>(q, dd)) /
+         q.den;
 }
 
 template <Op OP, int M>

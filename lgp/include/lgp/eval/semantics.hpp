@@ -5,6 +5,7 @@
 // approximation error of the float transcendentals. See ops.hpp for the table.
 #pragma once
 
+#include <array>
 #include <cmath>
 
 #include "lgp/core/ops.hpp"
@@ -115,6 +116,86 @@ inline T apply(T a, [[maybe_unused]] T b, [[maybe_unused]] T c, [[maybe_unused]]
     static_assert(OP == Op::Add, "operator without semantics");
 }
 
+// The partial derivatives of operator OP at operands (a, b, c, d) whose value is
+// v = apply<OP, T>(a, b, c, d), in the protected semantics: d v / d operand j is p[j] / den
+// where on[j], and 0 where not (a branch that does not take the operand: the caller adds
+// nothing for it, so an infinite derivative there cannot make a NaN). A guard, floor or clamp
+// that holds the result constant gives p[j] = 0. den is 1 but for div (v = a / g(b): the
+// Jacobian divides the sum of the terms by g once, as the kernel always has). inner: the
+// magnitude of a value the operator rounds before its result (mad's product, lerp's
+// (b - a) c), which the cancellation estimate adds. One definition for the float32 Jacobian
+// (eval/jacobian.cpp) and the double cancellation estimate (core/cancellation.cpp).
+template <class T>
+struct Partials {
+  std::array<T, kMaxArity> p{};
+  std::array<bool, kMaxArity> on{};
+  T den = T(1);
+  T inner = T(0);
+};
+
+template <Op OP, class T>
+inline Partials<T> partials(T v, T a, [[maybe_unused]] T b, [[maybe_unused]] T c,
+                            [[maybe_unused]] T d) {
+  using P = Partials<T>;
+  constexpr T kGuard = static_cast<T>(kDivGuard), kClamp = static_cast<T>(kExpClamp);
+  constexpr T kFloor = static_cast<T>(kMinPos);
+  constexpr T kLn2T = static_cast<T>(kLn2), kLog2ET = static_cast<T>(kLog2E);
+  constexpr std::array<bool, kMaxArity> a1{true, false, false, false}, a2{true, true, false, false},
+      a3{true, true, true, false};
+  (void)v;
+  if constexpr (OP == Op::Add)
+    return P{{T(1), T(1)}, a2};
+  else if constexpr (OP == Op::Sub)
+    return P{{T(1), T(-1)}, a2};
+  else if constexpr (OP == Op::Mul)
+    return P{{b, a}, a2};
+  else if constexpr (OP == Op::Div)  // v = a / g(b): dv = (da - v db) / g(b), no db at the guard
+    return P{{T(1), std::fabs(b) < kGuard ? T(0) : -v}, a2, guard(b)};
+  else if constexpr (OP == Op::Mad)
+    return P{{b, a, T(1)}, a3, T(1), a * b};
+  else if constexpr (OP == Op::Neg)
+    return P{{T(-1)}, a1};
+  else if constexpr (OP == Op::Rcp)
+    return P{{std::fabs(a) < kGuard ? T(0) : -v * v}, a1};
+  else if constexpr (OP == Op::Sqrt)
+    return P{{a > T(0) ? T(0.5) / v : T(0)}, a1};
+  else if constexpr (OP == Op::Rsqrt)
+    return P{{a > kFloor ? T(-0.5) * v / a : T(0)}, a1};
+  else if constexpr (OP == Op::Square)
+    return P{{a + a}, a1};
+  else if constexpr (OP == Op::Exp2)
+    return P{{std::fabs(a) < kClamp ? v * kLn2T : T(0)}, a1};
+  else if constexpr (OP == Op::Log2)
+    return P{{a > kFloor ? kLog2ET / a : T(0)}, a1};
+  else if constexpr (OP == Op::Exp)  // the clamped exponent, as in apply
+    return P{{std::fabs(a * kLog2ET) < kClamp ? v : T(0)}, a1};
+  else if constexpr (OP == Op::Log)
+    return P{{a > kFloor ? T(1) / a : T(0)}, a1};
+  else if constexpr (OP == Op::Pow) {
+    // v = 2^(b log2 a'), a' = max(a, kMinPos): dv/da = v b / a, dv/db = v ln2 log2 a'.
+    const T l = plog2(a);
+    const bool inside = std::fabs(b * l) < kClamp;
+    return P{{inside && a > kFloor ? v * b / a : T(0), inside ? v * kLn2T * l : T(0)}, a2};
+  } else if constexpr (OP == Op::Sin)
+    return P{{Math<T>::cos(a)}, a1};
+  else if constexpr (OP == Op::Cos)
+    return P{{-Math<T>::sin(a)}, a1};
+  else if constexpr (OP == Op::Min)
+    return P{{T(1), T(1)}, {a < b, !(a < b), false, false}};
+  else if constexpr (OP == Op::Max)
+    return P{{T(1), T(1)}, {a > b, !(a > b), false, false}};
+  else if constexpr (OP == Op::Abs)
+    return P{{a < T(0) ? T(-1) : T(1)}, a1};
+  else if constexpr (OP == Op::Saturate)
+    return P{{a > T(0) && a < T(1) ? T(1) : T(0)}, a1};
+  else if constexpr (OP == Op::Lerp)  // v = a + (b - a) c
+    return P{{T(1) - c, c, b - a}, a3, T(1), (b - a) * c};
+  else if constexpr (OP == Op::Select)  // a > b ? c : d: no derivative through the comparison
+    return P{{T(0), T(0), T(1), T(1)}, {false, false, a > b, !(a > b)}};
+  else
+    static_assert(OP == Op::Add, "operator without partial derivatives");
+}
+
 // Runtime dispatch for scalar evaluation (reference evaluator, parser constant folding).
 template <class T>
 inline T applyDynamic(Op op, T a, T b, T c, T d) {
@@ -126,6 +207,18 @@ inline T applyDynamic(Op op, T a, T b, T c, T d) {
 #undef LGP_X_CASE
   }
   return T(0);
+}
+
+template <class T>
+inline Partials<T> partialsDynamic(Op op, T v, T a, T b, T c, T d) {
+  switch (op) {
+#define LGP_X_CASE(E, ...) \
+  case Op::E:              \
+    return partials<Op::E, T>(v, a, b, c, d);
+    LGP_OPS(LGP_X_CASE)
+#undef LGP_X_CASE
+  }
+  return Partials<T>{};
 }
 
 }  // namespace sem
