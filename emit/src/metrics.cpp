@@ -9,37 +9,10 @@ namespace lgp::emit::detail {
 
 std::vector<OutputMetrics> valueMetrics(const std::vector<std::vector<double>>& values,
                                         const Table& t, double rel_floor) {
-  const size_t k = values.size(), n = t.rows();
-  std::vector<OutputMetrics> out(k);
-  for (size_t j = 0; j < k; ++j) {
-    double sw = 0, se2 = 0, sae = 0, srel = 0, sy = 0, sy2 = 0, mx = 0;
-    bool bad = false;
-    for (size_t r = 0; r < n && !bad; ++r) {
-      const double v = values[j][r];
-      if (!std::isfinite(v)) {
-        bad = true;
-        break;
-      }
-      const double w = t.weights.empty() ? 1.0 : t.weights[r];
-      const double yt = t.outputs[j][r], e = v - yt;
-      sw += w;
-      se2 += w * e * e;
-      sae += w * std::fabs(e);
-      srel += w * std::fabs(e) / std::max(std::fabs(yt), rel_floor);
-      sy += w * yt;
-      sy2 += w * yt * yt;
-      if (w > 0) mx = std::max(mx, std::fabs(e));
-    }
-    if (bad || sw <= 0) continue;  // defaults are +inf / -inf
-    OutputMetrics& m = out[j];
-    m.rmse = std::sqrt(se2 / sw);
-    m.max_abs = mx;
-    m.mae = sae / sw;
-    m.mean_rel = srel / sw;
-    const double mean = sy / sw;
-    const double sst = sy2 - sw * mean * mean;
-    m.r2 = sst > 0 ? 1.0 - se2 / sst : (se2 == 0 ? 1.0 : -std::numeric_limits<double>::infinity());
-  }
+  std::vector<OutputMetrics> out;
+  for (size_t j = 0; j < values.size(); ++j)
+    out.push_back(metricsOf(values[j].data(), t.outputs[j].data(),
+                            t.weights.empty() ? nullptr : t.weights.data(), t.rows(), rel_floor));
   return out;
 }
 

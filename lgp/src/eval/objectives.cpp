@@ -10,7 +10,6 @@
 namespace lgp {
 
 namespace {
-constexpr std::string_view kMetricNames[] = {"rmse", "max_abs", "mae", "mean_rel"};
 constexpr std::string_view kTransformNames[] = {"none", "log", "sqrt", "rcp"};
 constexpr std::string_view kCombineNames[] = {"mean", "max"};
 
@@ -24,7 +23,7 @@ std::optional<E> fromNames(std::string_view s, const std::string_view (&names)[N
 }  // namespace
 
 std::string_view toString(ErrorMetric m) {
-  return kMetricNames[static_cast<int>(m)];
+  return metricInfo(m).name;
 }
 std::string_view toString(TargetTransform t) {
   return kTransformNames[static_cast<int>(t)];
@@ -33,7 +32,36 @@ std::string_view toString(OutputCombine c) {
   return kCombineNames[static_cast<int>(c)];
 }
 std::optional<ErrorMetric> errorMetricFromString(std::string_view s) {
-  return fromNames<ErrorMetric>(s, kMetricNames);
+  for (const auto& m : allMetrics())
+    if (m.name == s) return m.metric;
+  return std::nullopt;
+}
+
+OutputMetrics metricsOf(const double* p, const double* y, const double* w, size_t n,
+                        double rel_floor) {
+  OutputMetrics m;
+  double sw = 0, swy = 0, sse = 0, sae = 0, srel = 0, mx = 0;
+  for (size_t r = 0; r < n; ++r) {
+    if (!std::isfinite(p[r])) return OutputMetrics{};
+    const double wr = w ? w[r] : 1.0;
+    const double d = p[r] - y[r];
+    sw += wr;
+    swy += wr * y[r];
+    sse += wr * d * d;
+    sae += wr * std::fabs(d);
+    srel += wr * std::fabs(d) / std::max(std::fabs(y[r]), rel_floor);
+    mx = std::max(mx, std::fabs(d));
+  }
+  if (sw <= 0) return m;
+  const double mean = swy / sw;
+  double ss = 0;
+  for (size_t r = 0; r < n; ++r) ss += (w ? w[r] : 1.0) * (y[r] - mean) * (y[r] - mean);
+  m.rmse = std::sqrt(sse / sw);
+  m.max_abs = mx;
+  m.mae = sae / sw;
+  m.mean_rel = srel / sw;
+  m.r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
+  return m;
 }
 std::optional<TargetTransform> targetTransformFromString(std::string_view s) {
   return fromNames<TargetTransform>(s, kTransformNames);
@@ -250,17 +278,7 @@ OutputMetrics metricsFromAcc(const Acc& a, double weight_sum) {
 }
 
 double pickMetric(const OutputMetrics& m, ErrorMetric metric) {
-  switch (metric) {
-    case ErrorMetric::Rmse:
-      return m.rmse;
-    case ErrorMetric::MaxAbs:
-      return m.max_abs;
-    case ErrorMetric::Mae:
-      return m.mae;
-    case ErrorMetric::MeanRel:
-      return m.mean_rel;
-  }
-  return m.rmse;
+  return metricValue(m, metric);
 }
 
 // Combines per-output errors; a non-finite one makes the whole error +inf.
@@ -744,16 +762,16 @@ double Scorer::error(const BoundProgram& bp) {
   bool ok = false;
   switch (cfg_.metric) {
     case ErrorMetric::Rmse:
-      ok = measure<0>(bp);
+      ok = measure<static_cast<int>(ErrorMetric::Rmse)>(bp);
       break;
     case ErrorMetric::MaxAbs:
-      ok = measure<1>(bp);
+      ok = measure<static_cast<int>(ErrorMetric::MaxAbs)>(bp);
       break;
     case ErrorMetric::Mae:
-      ok = measure<2>(bp);
+      ok = measure<static_cast<int>(ErrorMetric::Mae)>(bp);
       break;
     case ErrorMetric::MeanRel:
-      ok = measure<3>(bp);
+      ok = measure<static_cast<int>(ErrorMetric::MeanRel)>(bp);
       break;
   }
   if (!ok) return std::numeric_limits<double>::infinity();
@@ -848,36 +866,11 @@ Program applyLinearScaling(const Program& p, const std::vector<LinearScale>& sca
 }
 
 namespace {
-// Every metric of one series of double predictions against y (the reference path); the worst
-// values when a prediction is not finite or no row has weight.
+// Every metric of one series of double predictions against y (the reference path).
 OutputMetrics seriesMetrics(const std::vector<double>& v, const std::vector<double>& y,
                             const std::vector<double>& weights, double rel_floor) {
-  OutputMetrics m;
-  double sw = 0, sse = 0, sae = 0, srel = 0, mx = 0, swy = 0;
-  for (size_t r = 0; r < v.size(); ++r) {
-    if (!std::isfinite(v[r])) return OutputMetrics{};
-    const double w = weights.empty() ? 1.0 : weights[r];
-    const double d = v[r] - y[r];
-    sw += w;
-    swy += w * y[r];
-    sse += w * d * d;
-    sae += w * std::fabs(d);
-    srel += w * std::fabs(d) / std::max(std::fabs(y[r]), rel_floor);
-    mx = std::max(mx, std::fabs(d));
-  }
-  if (sw <= 0) return m;
-  const double mean = swy / sw;
-  double ss = 0;
-  for (size_t r = 0; r < v.size(); ++r) {
-    const double w = weights.empty() ? 1.0 : weights[r];
-    ss += w * (y[r] - mean) * (y[r] - mean);
-  }
-  m.rmse = std::sqrt(sse / sw);
-  m.max_abs = mx;
-  m.mae = sae / sw;
-  m.mean_rel = srel / sw;
-  m.r2 = ss > 0 ? 1.0 - sse / ss : (sse == 0 ? 1.0 : 0.0);
-  return m;
+  return metricsOf(v.data(), y.data(), weights.empty() ? nullptr : weights.data(), v.size(),
+                   rel_floor);
 }
 
 // The reference evaluator's outputs, mapped back through the inverse transforms.

@@ -27,10 +27,10 @@
 #include "lgp/eval/cost_model.hpp"
 #include "lgp/eval/fidelity.hpp"
 #include "lgp/eval/interpreter.hpp"
+#include "lgp/eval/metrics.hpp"
 
 namespace lgp {
 
-enum class ErrorMetric : uint8_t { Rmse, MaxAbs, Mae, MeanRel };
 enum class TargetTransform : uint8_t { None, Log, Sqrt, Rcp };
 enum class OutputCombine : uint8_t { Mean, Max };
 
@@ -81,14 +81,6 @@ struct LinearScale {
   Op op() const { return b == 0.0f ? Op::Mul : a == 1.0f ? Op::Add : Op::Mad; }
 };
 
-// Every metric of one output, measured on the original (untransformed) scale.
-struct OutputMetrics {
-  double rmse = std::numeric_limits<double>::infinity();
-  double max_abs = std::numeric_limits<double>::infinity();
-  double mae = std::numeric_limits<double>::infinity();
-  double mean_rel = std::numeric_limits<double>::infinity();
-  double r2 = -std::numeric_limits<double>::infinity();
-};
 
 struct Objectives {
   double error = std::numeric_limits<double>::infinity();
