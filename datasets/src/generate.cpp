@@ -6,7 +6,9 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -27,17 +29,59 @@ namespace lgp::datasets {
 namespace {
 using nlohmann::json;
 
+// The evaluator that writes each output: a switch with no `default:`, so a new catalogue entry
+// (outputs.hpp) fails to compile until it is given one; an output its evaluator then does not
+// write is an error, not a column of zeros (kUnwritten).
+enum class Evaluator { Specular, Eavg, Zh, Normalization, Sheen, Burley, OrenNayar, Dielectric };
+inline constexpr size_t kNumEvaluators = static_cast<size_t>(Evaluator::Dielectric) + 1;
+Evaluator evaluatorOf(Output o) {
+  switch (o) {
+    case Output::A:
+    case Output::B:
+    case Output::E:
+    case Output::one_minus_E:
+    case Output::ms_turquin:
+    case Output::ms_lobe:
+      return Evaluator::Specular;
+    case Output::E_avg:
+      return Evaluator::Eavg;
+    case Output::ZH0:
+    case Output::ZH1:
+    case Output::ZH2:
+    case Output::ZH1_over_ZH0:
+    case Output::ZH2_over_ZH0:
+    case Output::beta:
+      return Evaluator::Zh;
+    case Output::N:
+      return Evaluator::Normalization;
+    case Output::E_sheen:
+      return Evaluator::Sheen;
+    case Output::E_burley:
+      return Evaluator::Burley;
+    case Output::E_oren_nayar:
+      return Evaluator::OrenNayar;
+    case Output::F_dielectric:
+    case Output::F_avg:
+    case Output::E_refl:
+    case Output::E_trans:
+    case Output::E_dielectric:
+      return Evaluator::Dielectric;
+  }
+  return Evaluator::Specular;
+}
+
 // What to compute, and where each output goes (-1: not asked for).
 struct Plan {
   IntegratorOptions io;
   std::vector<size_t> stride, count;  // row = sum_a i_a stride_a, first input fastest
   int ax_mu = -1, ax_r = -1, ax_eta = -1;
-  int A = -1, B = -1, E = -1, one_minus_E = -1, E_avg = -1, ms_turquin = -1, ms_lobe = -1;
-  int ZH0 = -1, ZH1 = -1, ZH2 = -1, R1 = -1, R2 = -1, beta = -1, N = -1;
-  int sheen = -1, burley = -1, oren_nayar = -1;
-  int F = -1, F_avg = -1, refl = -1, trans = -1, dielectric = -1;
-  bool spec = false, split = false, zh = false, eavg = false;
+  std::array<int, kNumOutputs> col{};              // per Output, its column in the table
+  std::array<bool, kNumEvaluators> evaluators{};  // per Evaluator, whether an output needs it
+  bool split = false, eavg = false;
 
+  int at(Output o) const { return col[static_cast<size_t>(o)]; }
+  bool wants(Output o) const { return at(o) >= 0; }
+  bool runs(Evaluator e) const { return evaluators[static_cast<size_t>(e)]; }
   size_t index(size_t row, int axis) const { return (row / stride[axis]) % count[axis]; }
 };
 
@@ -57,23 +101,15 @@ Plan makePlan(const Scene& s) {
     if (n == "r") p.ax_r = static_cast<int>(a);
     if (n == "eta") p.ax_eta = static_cast<int>(a);
   }
-  auto col = [&](const char* name) -> int {
-    for (size_t k = 0; k < s.outputs.size(); ++k)
-      if (s.outputs[k] == name) return static_cast<int>(k);
-    return -1;
-  };
-  p.A = col("A"), p.B = col("B"), p.E = col("E"), p.one_minus_E = col("one_minus_E");
-  p.E_avg = col("E_avg"), p.ms_turquin = col("ms_turquin"), p.ms_lobe = col("ms_lobe");
-  p.ZH0 = col("ZH0"), p.ZH1 = col("ZH1"), p.ZH2 = col("ZH2"), p.R1 = col("ZH1_over_ZH0");
-  p.R2 = col("ZH2_over_ZH0"), p.beta = col("beta"), p.N = col("N");
-  p.sheen = col("E_sheen"), p.burley = col("E_burley"), p.oren_nayar = col("E_oren_nayar");
-  p.F = col("F_dielectric"), p.F_avg = col("F_avg"), p.refl = col("E_refl");
-  p.trans = col("E_trans"), p.dielectric = col("E_dielectric");
-  p.spec =
-      p.A >= 0 || p.B >= 0 || p.E >= 0 || p.one_minus_E >= 0 || p.ms_turquin >= 0 || p.ms_lobe >= 0;
+  p.col.fill(-1);
+  for (size_t k = 0; k < s.outputs.size(); ++k)
+    if (const OutputSpec* o = findOutput(s.outputs[k])) {
+      p.col[static_cast<size_t>(o->id)] = static_cast<int>(k);
+      p.evaluators[static_cast<size_t>(evaluatorOf(o->id))] = true;
+    }
+  // E_avg is the Eavg evaluator's; ms_lobe needs it too.
+  p.eavg = p.wants(Output::E_avg) || p.wants(Output::ms_lobe);
   p.split = s.needs(Effect::Fresnel);
-  p.zh = s.needs(Effect::Diffuse);
-  p.eavg = p.E_avg >= 0 || p.ms_lobe >= 0;
   return p;
 }
 
@@ -115,6 +151,16 @@ PerAxis perAxis(const std::vector<double>& xs, const std::vector<char>& need, Pa
   return out;
 }
 
+// The value every output starts at: a NaN with a payload no arithmetic makes, so that a value
+// no evaluator wrote is told apart from a NaN an integral produced.
+constexpr uint64_t kUnwrittenBits = 0x7ff80000c0ffee00ull;
+double unwritten() {
+  return std::bit_cast<double>(kUnwrittenBits);
+}
+bool isUnwritten(double v) {
+  return std::bit_cast<uint64_t>(v) == kUnwrittenBits;
+}
+
 // Where the outputs of table row `row` go: slot `slot` of every output's value and error.
 struct RowSink {
   std::vector<std::vector<double>>& value;
@@ -153,50 +199,50 @@ EavgValue eAvgFor(double alpha, Visibility vis, const IntegratorOptions& io, boo
 bool rowSpecular(const Plan& p, const Material& m, double mu, double r, const PerAxis& eavg,
                  size_t ir, const RowSink& out, Counters& c) {
   IntegratorOptions io = p.io;
-  if (p.ms_lobe >= 0 && eavg.value[ir] < 1.0)  // see eAvgFor
+  if (p.wants(Output::ms_lobe) && eavg.value[ir] < 1.0)  // see eAvgFor
     io.abs_tol = std::max(
         1e-10, io.abs_tol * std::min(1.0, std::sqrt(std::numbers::pi * (1.0 - eavg.value[ir]))));
   DfgValue d = dfgPoint(mu, m.alpha(r), m.visibility, p.split, io, &c);
-  if (p.ms_turquin >= 0 && d.E > 0.0 && d.err_E > p.io.abs_tol * d.E * d.E) {
+  if (p.wants(Output::ms_turquin) && d.E > 0.0 && d.err_E > p.io.abs_tol * d.E * d.E) {
     io.abs_tol = std::min(io.abs_tol, 0.5 * p.io.abs_tol * d.E * d.E);
     d = dfgPoint(mu, m.alpha(r), m.visibility, p.split, io, &c);
   }
-  out.put(p.A, d.A, d.err_A);
-  out.put(p.B, d.B, d.err_B);
-  out.put(p.E, d.E, d.err_E);
-  out.put(p.one_minus_E, 1.0 - d.E, d.err_E);
+  out.put(p.at(Output::A), d.A, d.err_A);
+  out.put(p.at(Output::B), d.B, d.err_B);
+  out.put(p.at(Output::E), d.E, d.err_E);
+  out.put(p.at(Output::one_minus_E), 1.0 - d.E, d.err_E);
   const DerivedValue t = msTurquin(d.E, d.err_E);
-  out.put(p.ms_turquin, t.value, t.error);
-  if (p.ms_lobe >= 0) {
+  out.put(p.at(Output::ms_turquin), t.value, t.error);
+  if (p.wants(Output::ms_lobe)) {
     const DerivedValue l = msLobe(d.E, d.err_E, eavg.value[ir], eavg.error[ir]);
-    out.put(p.ms_lobe, l.value, l.error);
+    out.put(p.at(Output::ms_lobe), l.value, l.error);
   }
   return d.converged;
 }
 
 bool rowZh(const Plan& p, const Material& m, double mu, double r, const RowSink& out, Counters& c) {
   const ZhValue z = zhPoint(mu, r, m.diffuse, p.io, &c);
-  out.put(p.ZH0, z.zh0, z.err_zh0);
-  out.put(p.ZH1, z.zh1, z.err_zh1);
-  out.put(p.ZH2, z.zh2, z.err_zh2);
-  out.put(p.R1, z.ratio1, z.err_ratio1);
-  out.put(p.R2, z.ratio2, z.err_ratio2);
-  out.put(p.beta, z.beta, z.err_beta);
+  out.put(p.at(Output::ZH0), z.zh0, z.err_zh0);
+  out.put(p.at(Output::ZH1), z.zh1, z.err_zh1);
+  out.put(p.at(Output::ZH2), z.zh2, z.err_zh2);
+  out.put(p.at(Output::ZH1_over_ZH0), z.ratio1, z.err_ratio1);
+  out.put(p.at(Output::ZH2_over_ZH0), z.ratio2, z.err_ratio2);
+  out.put(p.at(Output::beta), z.beta, z.err_beta);
   return z.converged;
 }
 
 bool rowDielectric(const Plan& p, const Material& m, double mu, double r, double eta,
                    const PerAxis& favg, size_t ieta, const RowSink& out, Counters& c) {
-  if (p.F >= 0) out.put(p.F, fresnelDielectric(mu, eta), kRoundoff);
-  if (p.F_avg >= 0) out.put(p.F_avg, favg.value[ieta], favg.error[ieta]);
-  const bool refl = p.refl >= 0 || p.dielectric >= 0;
-  const bool trans = p.trans >= 0 || p.dielectric >= 0;
+  if (p.wants(Output::F_dielectric)) out.put(p.at(Output::F_dielectric), fresnelDielectric(mu, eta), kRoundoff);
+  if (p.wants(Output::F_avg)) out.put(p.at(Output::F_avg), favg.value[ieta], favg.error[ieta]);
+  const bool refl = p.wants(Output::E_refl) || p.wants(Output::E_dielectric);
+  const bool trans = p.wants(Output::E_trans) || p.wants(Output::E_dielectric);
   if (!refl && !trans) return true;
   const DielectricValue d =
       dielectricPoint(mu, m.alpha(r), eta, m.visibility, m.transmission, refl, trans, p.io, &c);
-  out.put(p.refl, d.refl, d.err_refl);
-  out.put(p.trans, d.trans, d.err_trans);
-  out.put(p.dielectric, d.refl + d.trans, d.err_refl + d.err_trans);
+  out.put(p.at(Output::E_refl), d.refl, d.err_refl);
+  out.put(p.at(Output::E_trans), d.trans, d.err_trans);
+  out.put(p.at(Output::E_dielectric), d.refl + d.trans, d.err_refl + d.err_trans);
   return d.converged;
 }
 
@@ -205,13 +251,13 @@ bool evalRow(const Scene& s, const Plan& p, const PerAxis& eavg, const PerAxis& 
              const RowSink& out, Counters& c) {
   const Material& m = s.material;
   const size_t row = out.row;
-  if (p.N >= 0) {
+  if (p.runs(Evaluator::Normalization)) {
     const double r = s.grid[0].values[p.index(row, 0)];
     const double x1 = s.grid[1].values[p.index(row, 1)];
     const double theta = s.light.size == "theta_s" ? x1 : 2.0 * std::atan(x1);
     const NormalizationValue nv =
         normalizationPoint(m.alpha(r), theta, m.visibility, s.light.softmin_s, p.io, &c);
-    out.put(p.N, nv.N, nv.error);
+    out.put(p.at(Output::N), nv.N, nv.error);
     return nv.converged;
   }
   auto at = [&](int axis, double dflt) {
@@ -221,23 +267,23 @@ bool evalRow(const Scene& s, const Plan& p, const PerAxis& eavg, const PerAxis& 
   const size_t ir = p.ax_r < 0 ? 0 : p.index(row, p.ax_r);
   const size_t ieta = p.ax_eta < 0 ? 0 : p.index(row, p.ax_eta);
   bool ok = true;
-  if (p.spec) ok = rowSpecular(p, m, mu, r, eavg, ir, out, c) && ok;
-  if (p.E_avg >= 0) out.put(p.E_avg, eavg.value[ir], eavg.error[ir]);
-  if (p.zh) ok = rowZh(p, m, mu, r, out, c) && ok;
-  if (p.sheen >= 0) {
+  if (p.runs(Evaluator::Specular)) ok = rowSpecular(p, m, mu, r, eavg, ir, out, c) && ok;
+  if (p.runs(Evaluator::Eavg)) out.put(p.at(Output::E_avg), eavg.value[ir], eavg.error[ir]);
+  if (p.runs(Evaluator::Zh)) ok = rowZh(p, m, mu, r, out, c) && ok;
+  if (p.runs(Evaluator::Sheen)) {
     const SheenValue v = sheenPoint(mu, m.alpha(r), p.io, &c);
-    out.put(p.sheen, v.E, v.error);
+    out.put(p.at(Output::E_sheen), v.E, v.error);
     ok = v.converged && ok;
   }
-  if (p.burley >= 0) {
+  if (p.runs(Evaluator::Burley)) {
     const AlbedoValue v = burleyAlbedo(mu, r, &c);
-    out.put(p.burley, v.E, v.error);
+    out.put(p.at(Output::E_burley), v.E, v.error);
   }
-  if (p.oren_nayar >= 0) {
+  if (p.runs(Evaluator::OrenNayar)) {
     const AlbedoValue v = orenNayarAlbedo(mu, r, &c);
-    out.put(p.oren_nayar, v.E, v.error);
+    out.put(p.at(Output::E_oren_nayar), v.E, v.error);
   }
-  if (p.ax_eta >= 0) ok = rowDielectric(p, m, mu, r, eta, favg, ieta, out, c) && ok;
+  if (p.runs(Evaluator::Dielectric)) ok = rowDielectric(p, m, mu, r, eta, favg, ieta, out, c) && ok;
   return ok;
 }
 
@@ -247,6 +293,9 @@ Status checkAndSummarize(const Scene& s, GeneratedTable& g, json& max_by) {
   for (size_t k = 0; k < s.outputs.size(); ++k) {
     double mx = 0;
     for (size_t row = 0; row < g.table.rows(); ++row) {
+      if (isUnwritten(g.table.outputs[k][row]))
+        return Status::error("no evaluator wrote " + s.outputs[k] +
+                             " (datasets/src/generate.cpp: evaluatorOf and its evaluator)");
       if (!std::isfinite(g.table.outputs[k][row])) {
         // The shortest form that reads back to the grid's value: it names the point (r =
         // 5e-324, not 0.000000).
@@ -290,10 +339,10 @@ Status evaluate(const Scene& s, const Plan& p, const std::vector<size_t>& rows,
   if (p.eavg)
     eavg = perAxis(s.axis("r")->values, axisNeed(p.ax_r), pass,
                    [&](double r, Counters& c, double& v, double& e, bool& ok) {
-                     const EavgValue x = eAvgFor(m.alpha(r), m.visibility, p.io, p.ms_lobe >= 0, c);
+                     const EavgValue x = eAvgFor(m.alpha(r), m.visibility, p.io, p.wants(Output::ms_lobe), c);
                      v = x.value, e = x.error, ok = x.converged;
                    });
-  if (p.F_avg >= 0)
+  if (p.wants(Output::F_avg))
     favg = perAxis(s.axis("eta")->values, axisNeed(p.ax_eta), pass,
                    [&](double eta, Counters& c, double& v, double& e, bool& ok) {
                      const FavgValue x = fresnelAverageDielectric(eta, p.io, &c);
@@ -324,7 +373,7 @@ Expected<GeneratedTable> generate(const Scene& s, const GenerateOptions& opt) {
   g.table.input_names = s.inputNames();
   g.table.output_names = s.outputs;
   g.table.inputs.assign(s.grid.size(), std::vector<double>(rows));
-  g.table.outputs.assign(K, std::vector<double>(rows));
+  g.table.outputs.assign(K, std::vector<double>(rows, unwritten()));
   g.errors.assign(K, std::vector<double>(rows));
   for (size_t row = 0; row < rows; ++row)
     for (size_t a = 0; a < s.grid.size(); ++a)
@@ -346,7 +395,7 @@ Expected<RowValues> generateRows(const Scene& s, const std::vector<size_t>& rows
   if (rows.empty()) return RowValues{};
   const Plan p = makePlan(s);
   RowValues out;
-  out.value.assign(s.outputs.size(), std::vector<double>(rows.size()));
+  out.value.assign(s.outputs.size(), std::vector<double>(rows.size(), unwritten()));
   out.error.assign(s.outputs.size(), std::vector<double>(rows.size()));
   Counters counters;
   bool converged = true;

@@ -7,6 +7,8 @@
 // N is the exception: its inputs (r and the light size) are shared with no other output.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -24,7 +26,37 @@ enum class Effect {
   Dielectric,     // exact dielectric Fresnel: F, F_avg, GGX reflection and transmission
 };
 
+// Every output, in canonical order (the catalogue's). A new output is an entry here, one in
+// outputCatalog() and a case of the evaluator map in generate.cpp (a switch with no
+// `default:`); tests/datasets/registry_test.cpp generates each and checks its cache key.
+enum class Output : uint8_t {
+  A,
+  B,
+  E,
+  one_minus_E,
+  E_avg,
+  ZH0,
+  ZH1,
+  ZH2,
+  ZH1_over_ZH0,
+  ZH2_over_ZH0,
+  beta,
+  N,
+  ms_turquin,
+  ms_lobe,
+  E_sheen,
+  E_burley,
+  E_oren_nayar,
+  F_dielectric,
+  F_avg,
+  E_refl,
+  E_trans,
+  E_dielectric,
+};
+inline constexpr size_t kNumOutputs = static_cast<size_t>(Output::E_dielectric) + 1;
+
 struct OutputSpec {
+  Output id;
   std::string name;
   std::vector<std::string> inputs;  // in canonical order; "size" stands for the light's input
   Effect effect;
