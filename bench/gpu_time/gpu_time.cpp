@@ -170,7 +170,7 @@ int main(int argc, char** argv) {
   if (!args.count("out")) die("--out: required");
   const auto front_paths = args["front"].as<std::vector<std::string>>();
   const auto lang = emit::languageFromString(args["lang"].as<std::string>());
-  if (!lang || *lang == emit::Language::Cpp) die("--lang: expected hlsl or glsl");
+  if (!lang || !emit::languageInfo(*lang).shader) die("--lang: expected a shader language (hlsl or glsl)");
   const uint32_t invocations = args["invocations"].as<uint32_t>();
   const uint32_t iters = args["iters"].as<uint32_t>();
   const bool stats_only = args.count("stats-only") > 0;

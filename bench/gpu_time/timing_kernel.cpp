@@ -48,7 +48,9 @@ float walkInput(const std::vector<Interval>& domain, size_t j, uint32_t i, uint3
 
 Expected<std::string> timingKernel(const emit::Emitted& e, emit::Language lang,
                                    const std::vector<Interval>& domain, emit::KernelBody body) {
-  if (lang == emit::Language::Cpp) return Status::error("timing kernel: HLSL or GLSL only");
+  if (!emit::languageInfo(lang).shader)
+    return Status::error("timing kernel: " + std::string(emit::languageInfo(lang).title) +
+                         " does not run on a GPU");
   if (e.output_access.empty() || e.function_name.empty())
     return Status::error("timing kernel: the emitted function has no outputs");
   const bool glsl = lang == emit::Language::Glsl;

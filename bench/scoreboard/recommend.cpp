@@ -96,9 +96,9 @@ void recommend(TableRun& r, const std::filesystem::path& dir, const Options& o) 
   r.recommended["isa"] = fin.members[pick].isa;
   r.recommended["formula"] = fin.members[pick].formula;
   json files = json::object();
-  for (auto [lang, ext] :
-       {std::pair{emit::Language::Hlsl, "hlsl"}, std::pair{emit::Language::Glsl, "glsl"},
-        std::pair{emit::Language::Cpp, "cpp"}}) {
+  for (const auto& language : emit::allLanguages()) {
+    const emit::Language lang = language.lang;
+    const std::string ext(language.name);
     emit::EmitOptions eo;
     eo.function_name = "lgp_" + r.spec.name;
     eo.fast = true;

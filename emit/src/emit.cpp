@@ -22,23 +22,29 @@ using detail::Helper;
 using detail::HelperSet;
 using detail::replaceAll;
 
+const LanguageInfo& languageInfo(Language l) {
+  for (const auto& i : allLanguages())
+    if (i.lang == l) return i;
+  return allLanguages()[0];
+}
+
 std::string_view toString(Language l) {
-  switch (l) {
-    case Language::Hlsl:
-      return "hlsl";
-    case Language::Glsl:
-      return "glsl";
-    case Language::Cpp:
-      return "cpp";
-  }
-  return "hlsl";
+  return languageInfo(l).name;
 }
 
 std::optional<Language> languageFromString(std::string_view s) {
-  if (s == "hlsl") return Language::Hlsl;
-  if (s == "glsl") return Language::Glsl;
-  if (s == "cpp" || s == "c++") return Language::Cpp;
+  for (const auto& i : allLanguages())
+    if (i.name == s) return i.lang;
+  if (s == "c++") return Language::Cpp;
   return std::nullopt;
+}
+
+std::string languageChoices() {
+  std::string s;
+  const auto& all = allLanguages();
+  for (size_t i = 0; i < all.size(); ++i)
+    s += (i == 0 ? "" : (i + 1 == all.size() ? " or " : ", ")) + std::string(all[i].name);
+  return s;
 }
 
 namespace {
@@ -66,6 +72,121 @@ const std::set<std::string>& reservedWords() {
       "float3",   "float4",    "half2",    "std",     "operator", "private",  "public", "protected",
       "virtual",  "friend"};
   return k;
+}
+
+// What each language writes differently in a function body (one switch per decision).
+// The qualifier of a local (C++'s are const).
+std::string localQualifier(Language l) {
+  switch (l) {
+    case Language::Cpp:
+      return "const ";
+    case Language::Hlsl:
+    case Language::Glsl:
+      return "";
+  }
+  return "";
+}
+// rcp where the protection is proven unreachable (`one`: 1 in the context's precision).
+std::string rawRcp(Language l, const std::string& one) {
+  switch (l) {
+    case Language::Hlsl:
+      return "rcp({0})";
+    case Language::Glsl:
+    case Language::Cpp:
+      return "(" + one + " / {0})";
+  }
+  return "";
+}
+// The language's own saturate has the interpreter's semantics (D3D: saturate(NaN) = 0).
+bool nativeSaturate(Language l) {
+  switch (l) {
+    case Language::Hlsl:
+      return true;
+    case Language::Glsl:
+    case Language::Cpp:
+      return false;
+  }
+  return false;
+}
+// saturate where its NaN branch is proven unreachable.
+std::string rawClamp01(Language l, const std::string& zero, const std::string& one) {
+  switch (l) {
+    case Language::Glsl:
+      return "clamp({0}, " + zero + ", " + one + ")";
+    case Language::Cpp:
+      return "std::clamp({0}, " + zero + ", " + one + ")";
+    case Language::Hlsl:
+      return "saturate({0})";
+  }
+  return "";
+}
+// min and max are written as the language's own (the GPU's); C++'s std::min orders NaN
+// unlike the interpreter, so C++ takes helpers unless NaN is proven absent.
+bool rawMinMax(Language l) {
+  switch (l) {
+    case Language::Hlsl:
+    case Language::Glsl:
+      return true;
+    case Language::Cpp:
+      return false;
+  }
+  return false;
+}
+
+// Whether results of two to four outputs can be a vector (float2, vec3); else a struct.
+bool hasVectorTypes(Language l) {
+  switch (l) {
+    case Language::Hlsl:
+    case Language::Glsl:
+      return true;
+    case Language::Cpp:
+      return false;
+  }
+  return false;
+}
+std::string functionQualifier(Language l) {
+  switch (l) {
+    case Language::Cpp:
+      return "inline ";  // several translation units may include the code
+    case Language::Hlsl:
+    case Language::Glsl:
+      return "";
+  }
+  return "";
+}
+// The mark of a parameter the formula does not read (C++ warns about it otherwise).
+std::string unusedParameter(Language l) {
+  switch (l) {
+    case Language::Cpp:
+      return "[[maybe_unused]] ";
+    case Language::Hlsl:
+    case Language::Glsl:
+      return "";
+  }
+  return "";
+}
+// What half-precision code needs from its compiler, for the header ("" = nothing).
+std::string halfRequirement(Language l) {
+  switch (l) {
+    case Language::Glsl:
+      return "Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require";
+    case Language::Hlsl:
+    case Language::Cpp:
+      return "";
+  }
+  return "";
+}
+// The #include lines the code needs (`vm`: the exact-math helpers).
+std::string includeLines(Language l, bool vm) {
+  switch (l) {
+    case Language::Cpp:
+      return std::string("#include <algorithm>\n#include <cmath>\n") +
+             (vm ? "#include <cstdint>\n#include <cstring>\n" : "") + "\n";
+    case Language::Hlsl:
+    case Language::Glsl:
+      return "";
+  }
+  return "";
 }
 
 std::string stripOuterParens(const std::string& s) {
@@ -144,8 +265,8 @@ class Renderer {
     if (!name_[id].empty()) return name_[id];
     const std::string e = expr(id);
     const std::string nm = prefix_ + std::to_string(counter_++);
-    body_ += "  " + std::string(c_.lang == Language::Cpp ? "const " : "") + detail::scalarType(c_) +
-             " " + nm + " = " + stripOuterParens(e) + ";\n";
+    body_ += "  " + localQualifier(c_.lang) + detail::scalarType(c_) + " " + nm + " = " +
+             stripOuterParens(e) + ";\n";
     name_[id] = nm;
     return nm;
   }
@@ -187,9 +308,11 @@ class Renderer {
     return call;
   }
 
+  // The op table's spelling with its literals in the context's precision (the C++ column
+  // writes float literals).
   std::string fix(std::string_view t) const {
     std::string s(t);
-    if (c_.lang == Language::Cpp && c_.prec == Precision::Double) {
+    if (c_.prec == Precision::Double) {
       s = replaceAll(s, "1.0f", "1.0");
       s = replaceAll(s, "0.0f", "0.0");
     }
@@ -199,11 +322,8 @@ class Renderer {
   std::string opTemplate(int id) {
     const Node& n = d_.nodes[id];
     const OpInfo& info = opInfo(n.op);
-    const bool cpp = c_.lang == Language::Cpp;
-    const bool glsl = c_.lang == Language::Glsl;
-    const bool vm = cpp && c_.exact_math && c_.prec == Precision::Float;
-    const std::string_view raw_t =
-        c_.lang == Language::Hlsl ? info.hlsl : (glsl ? info.glsl : info.cpp);
+    const bool vm = detail::exactMath(c_);
+    const std::string_view raw_t = detail::opSpelling(info, c_.lang);
     const bool raw = o_.fast && provenUnguarded(d_, id, iv_);
     auto markRaw = [&] { raw_ops_.insert(std::string(info.name)); };
     const std::string one = detail::literal(1.0, c_), zero = detail::literal(0.0, c_);
@@ -230,15 +350,13 @@ class Renderer {
         if (raw) return markRaw(), fix(raw_t);
         return useHelper(Helper::Div, "lgp_div({0}, {1})");
       case Op::Rcp:
-        if (raw) return markRaw(), c_.lang == Language::Hlsl ? "rcp({0})" : "(" + one + " / {0})";
+        if (raw) return markRaw(), rawRcp(c_.lang, one);
         return useHelper(Helper::Rcp, "lgp_rcp({0})");
       case Op::Sqrt:
         if (raw) return markRaw(), detail::primitive("sqrt", c_) + "({0})";
         return useHelper(Helper::Sqrt, "lgp_sqrt({0})");
       case Op::Rsqrt:
-        if (raw)
-          return markRaw(),
-                 cpp ? "(" + one + " / std::sqrt({0}))" : detail::primitive("rsqrt", c_) + "({0})";
+        if (raw) return markRaw(), fix(raw_t);
         return useHelper(Helper::Rsqrt, "lgp_rsqrt({0})");
       case Op::Exp2:
         if (raw) return markRaw(), vmUse(detail::primitive("exp2", c_) + "({0})");
@@ -261,16 +379,12 @@ class Renderer {
         return fix(raw_t);
       case Op::Min:
       case Op::Max:
-        if (!cpp || raw) return fix(raw_t);
+        if (raw || rawMinMax(c_.lang)) return fix(raw_t);
         return useHelper(n.op == Op::Min ? Helper::Min : Helper::Max,
                          n.op == Op::Min ? "lgp_min({0}, {1})" : "lgp_max({0}, {1})");
       case Op::Saturate:
-        if (c_.lang == Language::Hlsl) return fix(raw_t);  // D3D: saturate(NaN) = 0
-        if (raw) {
-          markRaw();
-          return glsl ? "clamp({0}, " + zero + ", " + one + ")"
-                      : "std::clamp({0}, " + zero + ", " + one + ")";
-        }
+        if (nativeSaturate(c_.lang)) return fix(raw_t);
+        if (raw) return markRaw(), rawClamp01(c_.lang, zero, one);
         return useHelper(Helper::Saturate, "lgp_saturate({0})");
     }
     return fix(raw_t);
@@ -356,13 +470,24 @@ Status EmitOptions::validate(Language lang) const {
       function_name.rfind("lgp_vm_", 0) == 0)
     return Status::error("function name: '" + function_name +
                          "' is not a usable identifier (letters, digits, _; not a keyword)");
-  if (precision == Precision::Half && lang == Language::Cpp)
-    return Status::error("precision: half is only available for HLSL and GLSL (got cpp)");
-  if (precision == Precision::Double && lang != Language::Cpp)
-    return Status::error("precision: double is only available for C++ (got " +
-                         std::string(toString(lang)) + ")");
-  if (exact_math && (lang != Language::Cpp || precision != Precision::Float))
-    return Status::error("exact_math: only for C++ with float precision");
+  // The languages that offer an option, for the message of one that does not.
+  auto offering = [](bool LanguageInfo::*has) {
+    std::string s;
+    for (const auto& i : allLanguages())
+      if (i.*has) s += (s.empty() ? "" : " and ") + std::string(i.title);
+    return s;
+  };
+  const LanguageInfo& info = languageInfo(lang);
+  if (precision == Precision::Half && !info.half)
+    return Status::error("precision: half is only available for " +
+                         offering(&LanguageInfo::half) + " (got " + std::string(info.name) + ")");
+  if (precision == Precision::Double && !info.double_precision)
+    return Status::error("precision: double is only available for " +
+                         offering(&LanguageInfo::double_precision) + " (got " +
+                         std::string(info.name) + ")");
+  if (exact_math && (!info.exact_math || precision != Precision::Float))
+    return Status::error("exact_math: only for " + offering(&LanguageInfo::exact_math) +
+                         " with float precision");
   return Status::ok();
 }
 
@@ -427,7 +552,7 @@ struct Interface {
       : lang(l),
         k(in.program.outputs.size()),
         T(detail::scalarType(ctx)),
-        use_struct(k > 1 && (l == Language::Cpp || k > 4)),
+        use_struct(k > 1 && (!hasVectorTypes(l) || k > 4)),
         struct_name(opts.function_name + "_result"),
         ret_type(k == 1 ? T : (use_struct ? struct_name : vectorType(ctx, k))),
         params(identifiers(in.input_names)) {
@@ -459,10 +584,9 @@ struct Interface {
     return k == 1 ? "" : use_struct ? "." + onames[j] : "." + std::string(1, "xyzw"[j]);
   }
   std::string signature(const std::string& name, const std::vector<uint8_t>& used) const {
-    const bool cpp = lang == Language::Cpp;
-    std::string sig = (cpp ? "inline " : "") + ret_type + " " + name + "(";
+    std::string sig = functionQualifier(lang) + ret_type + " " + name + "(";
     for (size_t i = 0; i < params.size(); ++i)
-      sig += (i ? ", " : "") + std::string(cpp && !used[i] ? "[[maybe_unused]] " : "") + T + " " +
+      sig += (i ? ", " : "") + (used[i] ? std::string() : unusedParameter(lang)) + T + " " +
              params[i];
     return sig + ")";
   }
@@ -590,10 +714,10 @@ Expected<std::string> headerComment(const EmitInput& in, const EmitOptions& opts
   if (auto s = errorLines(in, opts, f, out.dag, tr, line); !s) return s;
   costLines(in, opts, out, line);
   for (const auto& l : opts.header_lines) line(l);
-  if (lang == Language::Glsl && opts.precision == Precision::Half)
-    line("Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require");
+  if (opts.precision == Precision::Half)
+    if (const std::string r = halfRequirement(lang); !r.empty()) line(r);
   if (const std::string w = halfRangeWarning(out); !w.empty()) line("Warning: " + w);
-  if (lang == Language::Cpp && opts.exact_math)
+  if (opts.exact_math)  // C++ only (EmitOptions::validate)
     line(
         "Exact math: bit-identical to the lgp float32 interpreter (compile with "
         "-ffp-contract=off)");
@@ -700,12 +824,7 @@ Expected<Emitted> emitProgram(const EmitInput& in, Language lang, const EmitOpti
   }
 
   std::string code;
-  if (lang == Language::Cpp && opts.includes) {
-    code += "#include <algorithm>\n#include <cmath>\n";
-    if (r.helpers().test(static_cast<int>(Helper::Vm)))
-      code += "#include <cstdint>\n#include <cstring>\n";
-    code += "\n";
-  }
+  if (opts.includes) code += includeLines(lang, r.helpers().test(static_cast<int>(Helper::Vm)));
   if (opts.helpers && r.helpers().any())
     code += "// lgp protected-operator helpers (see lgp emit/README.md)\n" +
             detail::helperBlock(r.helpers(), ctx) + "\n";

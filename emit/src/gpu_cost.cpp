@@ -92,7 +92,9 @@ GpuBackendStatus isaBackendStatus(GpuFamily f) {
 }
 
 Expected<IsaStats> shaderIsaStats(GpuFamily f, Language lang, const std::string& shader) {
-  if (lang == Language::Cpp) return Status::error("ISA statistics: C++ does not run on a GPU");
+  if (!languageInfo(lang).shader)
+    return Status::error("ISA statistics: " + std::string(languageInfo(lang).title) +
+                         " does not run on a GPU");
   const std::string_view lname = toString(lang);
   const uint64_t key = fnv1a(fnv1a(fnv1a(14695981039346656037ull, toString(f)), lname), shader);
   IsaStats s;
@@ -139,7 +141,7 @@ Expected<IsaStats> measureEmitted(const Emitted& e, Language lang, Precision pre
 
 Expected<Emitted> emitMeasured(const EmitInput& in, Language lang, EmitOptions opts) {
   auto e = emitProgram(in, lang, opts);
-  if (!e || lang == Language::Cpp || !opts.header) return e;
+  if (!e || !languageInfo(lang).shader || !opts.header) return e;
   // Code printed without its helpers (defined elsewhere) is measured with them: the shader
   // compiler needs their definitions, and the user's build has them.
   if (!opts.helpers) {

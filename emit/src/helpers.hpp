@@ -35,6 +35,10 @@ struct Ctx {
   bool exact_math = false;  // C++ float only
 };
 
+// The operator's raw spelling in the language (the op table's column).
+std::string_view opSpelling(const OpInfo& info, Language l);
+// C++ float with the interpreter's own exp2/log2/sin/cos (EmitOptions::exact_math).
+bool exactMath(const Ctx& c);
 std::string scalarType(const Ctx& c);
 // A literal of the context's type: shortest round-trip digits of the value in that
 // precision, with a decimal point and the language's suffix (f for C++ float, h for half).

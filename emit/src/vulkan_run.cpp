@@ -14,6 +14,19 @@ namespace {
 
 const detail::DriverSpec kLavapipe{"run", ""};
 
+// Whether the language's half code is binary16 arithmetic, which a device without
+// shaderFloat16 cannot run (HLSL's half is relaxed precision: it runs everywhere).
+bool halfNeedsFloat16(Language l) {
+  switch (l) {
+    case Language::Glsl:
+      return true;
+    case Language::Hlsl:
+    case Language::Cpp:
+      return false;
+  }
+  return false;
+}
+
 }  // namespace
 
 VulkanStatus vulkanRunStatus() {
@@ -152,7 +165,7 @@ Expected<std::vector<VulkanCheck>> verifyOnVulkan(const EmitInput& in, const Tab
       const bool half = p == Precision::Half;
       const Precision ref_p = half ? Precision::Half : Precision::Float;
       c.reference = half ? "binary16 emulation" : "float32 interpreter";
-      if (half && lang == Language::Glsl && !st.float16) {
+      if (half && halfNeedsFloat16(lang) && !st.float16) {
         c.skipped = true;
         c.why = "the device has no shaderFloat16";
         out.push_back(std::move(c));

@@ -1,4 +1,5 @@
-// `lgp emit front.json --lang hlsl|glsl|cpp`: export one front member as shader or C++ code.
+// `lgp emit front.json --lang LANG`: export one front member as shader or C++ code
+// (lgp::emit::allLanguages).
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
@@ -98,7 +99,9 @@ cxxopts::Options emitOptions(const char* argv0) {
                         "what the search scored (see emit/README.md).");
   opts.positional_help("front.json");
   opts.add_options()("front", "front JSON written by `lgp run`", cxxopts::value<std::string>())(
-      "l,lang", "hlsl, glsl or cpp", cxxopts::value<std::string>()->default_value("hlsl"))(
+      "l,lang", lgp::emit::languageChoices(),
+      cxxopts::value<std::string>()->default_value(
+          std::string(lgp::emit::allLanguages()[0].name)))(
       "m,member", "member index", cxxopts::value<size_t>())(
       "max-error", "the cheapest member with error <= E", cxxopts::value<double>())(
       "max-cost", "the most accurate member with cost <= C", cxxopts::value<double>())(
@@ -261,7 +264,8 @@ int emitMain(int argc, char** argv) {
 
   const auto lang = lgp::emit::languageFromString(args["lang"].as<std::string>());
   if (!lang)
-    return fail("--lang: expected hlsl, glsl or cpp (got '" + args["lang"].as<std::string>() +
+    return fail("--lang: expected " + lgp::emit::languageChoices() + " (got '" +
+                args["lang"].as<std::string>() +
                 "')");
   auto eo = emitOptionsOf(args, *lang);
   if (!eo) return fail(eo.error());

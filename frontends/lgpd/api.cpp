@@ -390,6 +390,10 @@ class Api {
       if (m != "GET") return methodNotAllowed(res);
       return sendJson(res, 200, {{"ok", true}, {"service", "lgpd"}, {"api", "v1"}});
     }
+    if (seg.size() == 1 && seg[0] == "languages") {
+      if (m != "GET") return methodNotAllowed(res);
+      return languages(res);
+    }
     if (seg.empty() || seg[0] != "runs") return sendError(res, 404, "no such route");
     if (seg.size() == 1) {
       if (m == "GET") return listRuns(res);
@@ -594,26 +598,37 @@ class Api {
   }
 
   void code(const std::string& id, size_t k, const HttpRequest& req, HttpResponse& res) {
-    std::string lang = req.hasParam("lang") ? req.param("lang") : "hlsl";
-    if (lang != "hlsl" && lang != "glsl" && lang != "cpp")
-      return sendError(res, 400, "lang must be one of hlsl, glsl, cpp", "lang");
+#ifdef LGP_HAVE_EMIT
+    const std::string lang =
+        req.hasParam("lang") ? req.param("lang") : std::string(lgp::emit::allLanguages()[0].name);
+    const auto l = lgp::emit::languageFromString(lang);
+    if (!l)
+      return sendError(res, 400, "lang must be one of " + lgp::emit::languageChoices(), "lang");
     if (!loadRun(id, res)) return;
     auto f = loadFront(id, res);
     if (!f) return;
     if (!memberOf(f->front, k, id, res)) return;
-#ifdef LGP_HAVE_EMIT
-    using lgp::emit::Language;
-    Language l = lang == "hlsl" ? Language::Hlsl : lang == "glsl" ? Language::Glsl : Language::Cpp;
     lgp::emit::EmitOptions opts;
     opts.source = "lgpd run " + id + " member " + std::to_string(k);
-    auto text = lgp::emit::emitFromFront(f->front, k, l, opts);
+    auto text = lgp::emit::emitFromFront(f->front, k, *l, opts);
     if (!text)
       return sendError(res, 422, "cannot emit member " + std::to_string(k) + ": " + text.error());
     res.status = 200;
     res.setContent(*text, "text/plain; charset=utf-8");
 #else
+    (void)id, (void)k, (void)req;
     sendError(res, 503, "code export is not available: this lgpd was built without lgp::emit");
 #endif
+  }
+
+  // GET /api/v1/languages: what the code export speaks (the page's tabs).
+  void languages(HttpResponse& res) {
+    json list = json::array();
+#ifdef LGP_HAVE_EMIT
+    for (const auto& l : lgp::emit::allLanguages())
+      list.push_back({{"name", std::string(l.name)}, {"title", std::string(l.title)}});
+#endif
+    sendJson(res, 200, {{"languages", list}});
   }
 
   void residuals(const std::string& id, size_t k, const HttpRequest& req, HttpResponse& res) {
@@ -672,23 +687,22 @@ class Api {
       if (auto it = cfg->data.transforms.find(t.output_names[o]); it != cfg->data.transforms.end())
         tr = it->second;
       json resid = json::array();
-      double sum2 = 0, max_abs = 0;
-      size_t n = 0;
+      std::vector<double> pred(rows);
       for (size_t r = 0; r < rows; ++r) {
-        double pred = lgp::invertTransform(tr, static_cast<double>(out[o][r]));
-        double e = pred - t.outputs[o][r];
-        if (std::isfinite(e)) {
-          sum2 += e * e;
-          max_abs = std::max(max_abs, std::abs(e));
-          ++n;
-        }
-        if (r % stride == 0) resid.push_back(numberOrNull(e));
+        pred[r] = lgp::invertTransform(tr, static_cast<double>(out[o][r]));
+        if (r % stride == 0) resid.push_back(numberOrNull(pred[r] - t.outputs[o][r]));
       }
-      outputs.push_back({{"name", t.output_names[o]},
-                         {"transform", std::string(lgp::toString(tr))},
-                         {"rmse", n ? json(std::sqrt(sum2 / n)) : json(nullptr)},
-                         {"max_abs", n ? json(max_abs) : json(nullptr)},
-                         {"residual", std::move(resid)}});
+      // Every metric by its one definition (lgp/eval/metrics.hpp), the table's weights
+      // included; null where a prediction is not finite.
+      const lgp::OutputMetrics m =
+          lgp::metricsOf(pred.data(), t.outputs[o].data(),
+                         t.weights.empty() ? nullptr : t.weights.data(), rows,
+                         cfg->objectives.rel_floor);
+      json entry = {{"name", t.output_names[o]}, {"transform", std::string(lgp::toString(tr))}};
+      for (const auto& metric : lgp::allMetrics())
+        entry[std::string(metric.name)] = numberOrNull(m.*metric.field);
+      entry["residual"] = std::move(resid);
+      outputs.push_back(std::move(entry));
     }
     sendJson(res, 200,
              {{"id", id},

@@ -19,6 +19,7 @@
 
 #include "lgp/config/config.hpp"
 #include "lgp/config/json_reader.hpp"
+#include "lgp/core/formula.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
@@ -370,7 +371,8 @@ std::string emit(const std::string& front_text, size_t index, const std::string&
                  bool helpers, bool measure) {
   const nlohmann::json front = parseText(front_text, "front");
   const auto lang = lgp::emit::languageFromString(lang_name);
-  if (!lang) valueError("lang: expected hlsl, glsl or cpp (got '" + lang_name + "')");
+  if (!lang)
+    valueError("lang: expected " + lgp::emit::languageChoices() + " (got '" + lang_name + "')");
   const auto prec = lgp::precisionFromString(precision);
   if (!prec) valueError("precision: expected float, half or double (got '" + precision + "')");
   lgp::emit::EmitOptions eo;
@@ -434,6 +436,33 @@ py::tuple generate(const std::string& scene_text, const std::string& cache_dir, 
 }
 #endif
 
+// Every operator (lgp::allOps) as the front prints it and its value: for the Python side's
+// registry checks (its SymPy translation covers every formula lgp prints).
+py::list operators() {
+  py::list out;
+  const std::vector<std::string> in = {"x", "y", "z", "w"};
+  const std::vector<lgp::Interval> domain = {
+      {0.5, 1.5, false}, {0.25, 0.75, false}, {-1, 1, false}, {-1, 1, false}};
+  const double point[4] = {1.1, 0.6, -0.3, 0.7};
+  for (const auto& info : lgp::allOps()) {
+    lgp::Program p;
+    lgp::Instr ins;
+    ins.op = info.op;
+    for (int k = 0; k < info.arity; ++k) ins.args[k] = lgp::inputOperand(k);
+    p.code = {ins};
+    p.outputs = {0};
+    const auto f = lgp::printFormula(lgp::formulaDag(p, 4, domain), in, {"v"});
+    py::dict d;
+    d["name"] = std::string(info.name);
+    d["arity"] = info.arity;
+    d["formula"] = f.text();
+    d["value"] = lgp::evaluateReferenceRow(p, point)[0];
+    d["point"] = py::make_tuple(point[0], point[1], point[2], point[3]);
+    out.append(d);
+  }
+  return out;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_lgp, m) {
@@ -442,6 +471,7 @@ PYBIND11_MODULE(_lgp, m) {
         py::arg("y").none(true), py::arg("sample_weight").none(true),
         py::arg("progress").none(true), py::arg("progress_interval"));
   m.def("check_config", &checkConfig, py::arg("config"), py::arg("base_dir"));
+  m.def("operators", &operators);
   m.def("read_front", &readFront, py::arg("path"));
   m.def("predict", &predict, py::arg("front"), py::arg("member"), py::arg("X"),
         py::arg("double_precision"));
@@ -454,6 +484,13 @@ PYBIND11_MODULE(_lgp, m) {
 #ifdef LGP_HAVE_DATASETS
   m.def("generate", &generate, py::arg("scene"), py::arg("cache_dir"), py::arg("threads"));
 #endif
+  // The languages Member.emit writes (lgp::emit::allLanguages): (name, title) pairs.
+  py::list languages;
+#ifdef LGP_HAVE_EMIT
+  for (const auto& l : lgp::emit::allLanguages())
+    languages.append(py::make_tuple(std::string(l.name), std::string(l.title)));
+#endif
+  m.attr("languages") = py::tuple(languages);
   m.attr("has_emit") =
 #ifdef LGP_HAVE_EMIT
       true;

@@ -5,7 +5,7 @@
   const params = new URLSearchParams(location.search);
   const state = { runs: [], run: params.get("run"), member: params.has("member") ?
                   Number(params.get("member")) : null, front: null, frontGen: -1,
-                  lang: "hlsl", residuals: null, token: sessionStorage.getItem("lgpd-token") };
+                  lang: null, residuals: null, token: sessionStorage.getItem("lgpd-token") };
   const $ = (id) => document.getElementById(id);
   const SVGNS = "http://www.w3.org/2000/svg";
 
@@ -515,8 +515,19 @@
     pre.textContent = "// " + state.lang + " unavailable: " + msg;
   }
   wireCopy($("copyformula"), () => $("formula").dataset.formula);
-  for (const b of document.querySelectorAll("#langs button"))
-    b.addEventListener("click", () => { state.lang = b.dataset.lang; showCode(); });
+  // One tab per language the daemon exports (GET /languages: lgp::emit::allLanguages).
+  async function buildLangTabs() {
+    const r = await apiJson("/languages");
+    const langs = r.ok && Array.isArray(r.body.languages) ? r.body.languages : [];
+    const tabs = $("langs");
+    tabs.replaceChildren();
+    for (const l of langs) {
+      const b = el("button", { "data-lang": String(l.name) }, String(l.title));
+      b.addEventListener("click", () => { state.lang = b.dataset.lang; showCode(); });
+      tabs.append(b);
+    }
+    if (langs.length && !langs.some((l) => l.name === state.lang)) state.lang = String(langs[0].name);
+  }
 
   async function showResiduals() {
     const f = state.front;
@@ -596,6 +607,5 @@
     else { msg.className = "err"; msg.textContent = (r.body && r.body.error) || ("HTTP " + r.status); }
   });
 
-  refresh();
-  setInterval(refresh, 2000);
+  buildLangTabs().then(() => { refresh(); setInterval(refresh, 2000); });
 })();

@@ -13,11 +13,15 @@ writes what :func:`fit` returns; :func:`load_front` reads it; :meth:`Member.emit
 lgpd.
 """
 
+from . import _lgp
 from ._daemon import Daemon, DaemonError
 from ._fit import Table, data, fit
 from ._front import Front, Member, load_front
 from ._sklearn import Regressor
 
+#: The languages :meth:`Member.emit` writes, as ``lgp emit --lang`` names them.
+languages = tuple(name for name, _title in _lgp.languages)
+
 __all__ = ["Daemon", "DaemonError", "Front", "Member", "Regressor", "Table", "data", "fit",
-           "load_front"]
+           "languages", "load_front"]
 __version__ = "0.1.0"

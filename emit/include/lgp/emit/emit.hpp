@@ -11,6 +11,7 @@
 // emitted functions can share a file).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -28,8 +29,35 @@
 namespace lgp::emit {
 
 enum class Language { Hlsl, Glsl, Cpp };
+
+// Every language the emitters write, described once: what `lgp emit --lang`, lgpd (?lang= and
+// the page's tabs, GET /api/v1/languages) and Python (Member.emit, lgp.languages) accept and
+// show. How each is written is decided in emit/src (a switch over Language with no `default:`
+// at every decision, so a new language fails to compile until each is made) and in the
+// operator table's spelling column (ops.hpp).
+struct LanguageInfo {
+  Language lang;
+  std::string_view name;   // "hlsl"
+  std::string_view title;  // "HLSL"
+  bool shader;             // GPU code: measured cost (ACO), --verify vulkan, a compute kernel
+  bool half;               // --precision half
+  bool double_precision;   // --precision double
+  bool exact_math;         // --exact-math (the interpreter's own exp2/log2/sin/cos)
+};
+inline constexpr std::array<LanguageInfo, 3> kLanguages = {{
+    {Language::Hlsl, "hlsl", "HLSL", true, true, false, false},
+    {Language::Glsl, "glsl", "GLSL", true, true, false, false},
+    {Language::Cpp, "cpp", "C++", false, false, true, true},
+}};
+constexpr const std::array<LanguageInfo, 3>& allLanguages() {
+  return kLanguages;
+}
+const LanguageInfo& languageInfo(Language l);
 std::string_view toString(Language l);
-std::optional<Language> languageFromString(std::string_view s);  // "hlsl", "glsl", "cpp"
+// A name of allLanguages() (and "c++" for cpp).
+std::optional<Language> languageFromString(std::string_view s);
+// "hlsl, glsl or cpp", for messages and help texts.
+std::string languageChoices();
 
 struct EmitOptions {
   std::string function_name = "lgp_fit";  // a C identifier
