@@ -52,9 +52,11 @@ RUN_CMAKE_ARGS=(-DLGP_BUILD_TESTS=OFF -DLGP_BUILD_BENCH=OFF -DLGP_REQUIRE_ALL=OF
 # The cache options of a `test` build: every part, whatever an earlier configure cached (a `run`
 # before the packages were there caches LGP_WITH_GPU=OFF and LGP_WITH_MPI=OFF), and a part
 # that cannot be built stops the configure (LGP_REQUIRE_ALL) instead of dropping its tests.
+# Warnings are errors here (LGP_WERROR): a switch that misses an operator, a metric or a
+# language, or a Status nobody reads, stops the build (CONTRIBUTING.md).
 TEST_CMAKE_ARGS=(-DLGP_BUILD_TESTS=ON -DLGP_BUILD_BENCH=ON -DLGP_WITH_GPU=ON -DLGP_WITH_MPI=ON
   -DLGP_WITH_PYTHON=ON -DLGP_WITH_DAEMON=ON -DLGP_WITH_EMIT=ON -DLGP_WITH_DATASETS=ON
-  -DLGP_REQUIRE_ALL=ON)
+  -DLGP_REQUIRE_ALL=ON -DLGP_WERROR=ON)
 
 # Installs the given packages where missing.
 deps() {

@@ -154,7 +154,11 @@ std::string csvField(std::string_view s) {
 std::string csvSpreadsheetField(std::string_view s) {
   const bool formula = !s.empty() && (s[0] == '=' || s[0] == '+' || s[0] == '-' || s[0] == '@' ||
                                       s[0] == '\t' || s[0] == '\r');
-  if (formula && !isDecimalNumber(s)) return csvField("'" + std::string(s));
+  if (formula && !isDecimalNumber(s)) {
+    std::string quoted = "'";  // appended: GCC 12's -Wstringop-overflow misreads "'" + string
+    quoted += s;
+    return csvField(quoted);
+  }
   return csvField(s);
 }
 

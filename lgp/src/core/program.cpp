@@ -171,7 +171,9 @@ nlohmann::json toJson(const Program& p) {
     for (int a = 0; a < arity(ins.op); ++a) {
       const Operand& o = ins.args[a];
       const char k = o.kind == OperandKind::Var ? 'x' : o.kind == OperandKind::Const ? 'c' : 'r';
-      row.push_back(std::string(1, k) + std::to_string(o.index));
+      std::string tok(1, k);  // appended, not string + string: GCC 12 warns falsely there
+      tok += std::to_string(o.index);
+      row.push_back(tok);
     }
     code.push_back(row);
   }

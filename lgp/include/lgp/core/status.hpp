@@ -16,7 +16,8 @@
 
 namespace lgp {
 
-class Status {
+// [[nodiscard]]: a Status or Expected that nobody reads is a failure nobody sees.
+class [[nodiscard]] Status {
  public:
   Status() = default;
   static Status ok() { return Status(); }
@@ -38,7 +39,7 @@ class Status {
 
 // A value or an error message.
 template <class T>
-class Expected {
+class [[nodiscard]] Expected {
  public:
   Expected(T v) : v_(std::move(v)) {}
   Expected(Status s) : v_(std::move(s)) { LGP_ASSERT(!std::get<Status>(v_).isOk()); }
