@@ -32,21 +32,37 @@ std::string jsonError(std::string_view path, std::string_view why) {
   return e;
 }
 
+namespace {
+thread_local JsonKeyRecorder* g_recorder = nullptr;
+}  // namespace
+
+JsonKeyRecorder::JsonKeyRecorder() : outer_(g_recorder) {
+  g_recorder = this;
+}
+JsonKeyRecorder::~JsonKeyRecorder() {
+  g_recorder = outer_;
+}
+
 JsonObjectReader::JsonObjectReader(const nlohmann::json& object, std::string path)
     : j_(object), path_(std::move(path)) {}
 
-bool JsonObjectReader::has(std::string_view key) {
+void JsonObjectReader::know(std::string_view key) {
   known_.emplace(key);
+  if (g_recorder) g_recorder->keys_.insert(path(key));
+}
+
+bool JsonObjectReader::has(std::string_view key) {
+  know(key);
   return j_.is_object() && j_.contains(std::string(key));
 }
 
 const nlohmann::json& JsonObjectReader::at(std::string_view key) {
-  known_.emplace(key);
+  know(key);
   return j_.at(std::string(key));
 }
 
 void JsonObjectReader::allow(std::initializer_list<std::string_view> keys) {
-  for (auto k : keys) known_.emplace(k);
+  for (auto k : keys) know(k);
 }
 
 std::optional<std::string> JsonObjectReader::unknownKey() const {

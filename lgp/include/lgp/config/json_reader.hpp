@@ -42,6 +42,23 @@ std::string jsonPath(std::string_view parent, size_t index);
 // "<path>: <why>", the whole document shown as "/".
 std::string jsonError(std::string_view path, std::string_view why);
 
+// While it lives, records the JSON path of every key a JsonObjectReader on this thread is asked
+// for or told of: the keys a parser knows (tests/core/config_roundtrip_test.cpp lists the run
+// config's with it, to hold every one of them to toJson and the checkpoint digest).
+class JsonKeyRecorder {
+ public:
+  JsonKeyRecorder();
+  ~JsonKeyRecorder();
+  JsonKeyRecorder(const JsonKeyRecorder&) = delete;
+  JsonKeyRecorder& operator=(const JsonKeyRecorder&) = delete;
+  const std::set<std::string>& keys() const { return keys_; }
+
+ private:
+  friend class JsonObjectReader;
+  JsonKeyRecorder* outer_;
+  std::set<std::string> keys_;
+};
+
 // One JSON object being read: remembers the keys that were asked for or declared, so that the
 // rest can be reported as unknown. Keeps a reference: the object must outlive the reader.
 class JsonObjectReader {
@@ -60,7 +77,7 @@ class JsonObjectReader {
   void allow(std::initializer_list<std::string_view> keys);
   template <class Keys>
   void allowAll(const Keys& keys) {
-    for (const auto& k : keys) known_.emplace(k);
+    for (const auto& k : keys) know(k);
   }
 
   // The path of the first key, in the object's order, that is not known; none when all are
@@ -68,6 +85,7 @@ class JsonObjectReader {
   std::optional<std::string> unknownKey() const;
 
  private:
+  void know(std::string_view key);
   const nlohmann::json& j_;
   std::string path_;
   std::set<std::string, std::less<>> known_;

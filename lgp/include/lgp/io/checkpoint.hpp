@@ -30,8 +30,10 @@ namespace lgp {
 nlohmann::json objectivesToJson(const Objectives& o);
 Expected<Objectives> objectivesFromJson(const nlohmann::json& j);
 
-// A hash of everything that changes the search: the config without its outputs, MPI transport,
-// threads and budgets (a resume may extend those), and the table's values.
+// A hash of everything that changes the search: every field of toJson(cfg) but where results
+// go (output), how ranks exchange migrants (mpi), the threads, the budgets a resume may extend
+// (generations, max_evaluations, wall_time_s) and the semantic cache (time, never the result);
+// and the table's values. tests/core/config_roundtrip_test.cpp checks every field against it.
 std::string configDigest(const RunConfig& cfg, const Table& table);
 
 // Search::checkpoint() and Search::restore() (search.hpp says what they keep and check).
