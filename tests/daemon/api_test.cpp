@@ -105,6 +105,18 @@ TEST_F(ApiTest, SubmitStatusFrontCodeResiduals) {
   double want = f["members"][last]["outputs"][0]["float32"]["rmse"].get<double>();
   EXPECT_NEAR(rmse, want, 1e-4 * std::max(1.0, want)) << "residual RMSE vs front metrics";
 
+  // Every metric, by its one definition, equals the front's (the search's float32 figures).
+  for (const char* metric : {"rmse", "max_abs", "mae", "mean_rel"}) {
+    const double front_m = f["members"][last]["outputs"][0]["float32"][metric].get<double>();
+    EXPECT_NEAR(rj["outputs"][0][metric].get<double>(), front_m, 1e-4 * std::max(1e-3, front_m))
+        << metric;
+  }
+  // The languages the export speaks (the page's tabs).
+  Reply langs = d.get("/api/v1/languages");
+  ASSERT_EQ(langs.status, 200) << langs.body;
+  EXPECT_EQ(langs.j()["languages"][0]["name"], "hlsl") << langs.body;
+  EXPECT_EQ(langs.j()["languages"].size(), 3u) << langs.body;
+
   Reply hist = d.get("/api/v1/runs/" + id + "/history");
   ASSERT_EQ(hist.status, 200);
   auto h = hist.j()["history"];
@@ -120,6 +132,36 @@ TEST_F(ApiTest, SubmitStatusFrontCodeResiduals) {
   EXPECT_EQ(d.get("/api/v1/runs/" + id + "/front").status, 404);
   EXPECT_EQ(d.del("/api/v1/runs/" + id).status, 404);
   EXPECT_EQ(d.get("/api/v1/runs").j()["runs"].size(), 0u);
+}
+
+// Structure, round 2: lgpd's residual metrics ignored the table's row weights. They are the
+// metrics' one definition now, the weights included, and agree with the front's.
+TEST_F(ApiTest, ResidualMetricsHonourRowWeights) {
+  Daemon& d = *daemon_;
+  json table = jsonTable({"x", "y"}, 64);
+  json w = json::array();
+  for (int r = 0; r < 64; ++r) w.push_back(r < 16 ? 8.0 : 0.25);
+  table["weights"] = w;
+  json cfg = {{"data", {{"table", table}}},
+              {"search", {{"population", 32}, {"generations", 5}, {"threads", 1}}}};
+  std::string id = d.submit(cfg);
+  ASSERT_FALSE(id.empty());
+  ASSERT_EQ(d.waitDone(id).value("status", ""), "finished") << d.log();
+  json f = d.get("/api/v1/runs/" + id + "/front").j();
+  const size_t last = f["members"].size() - 1;
+  Reply res;
+  for (int i = 0; i < 100; ++i) {
+    res = d.get("/api/v1/runs/" + id + "/front/" + std::to_string(last) + "/residuals");
+    if (res.status != 503) break;
+    sleepMs(50);
+  }
+  ASSERT_EQ(res.status, 200) << res.body;
+  const json body = res.j();
+  const json& out = body["outputs"][0];
+  for (const char* metric : {"rmse", "mae", "mean_rel"}) {
+    const double want = f["members"][last]["outputs"][0]["float32"][metric].get<double>();
+    EXPECT_NEAR(out[metric].get<double>(), want, 1e-4 * std::max(1e-3, want)) << metric;
+  }
 }
 
 TEST_F(ApiTest, CancelKeepsFrontAndDeleteRemovesRunningRun) {
