@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -448,7 +449,9 @@ py::list operators() {
     lgp::Program p;
     lgp::Instr ins;
     ins.op = info.op;
-    for (int k = 0; k < info.arity; ++k) ins.args[k] = lgp::inputOperand(k);
+    // (bounded by kMaxArity too: GCC 12 cannot tell that arity is, and warns)
+    for (int k = 0; k < std::min(info.arity, lgp::kMaxArity); ++k)
+      ins.args[k] = lgp::inputOperand(k);
     p.code = {ins};
     p.outputs = {0};
     const auto f = lgp::printFormula(lgp::formulaDag(p, 4, domain), in, {"v"});

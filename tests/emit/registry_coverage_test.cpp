@@ -30,7 +30,8 @@ Program singleOp(Op op) {
   Program p;
   Instr in;
   in.op = op;
-  for (int k = 0; k < arity(op); ++k) in.args[k] = inputOperand(k);
+  // (bounded by kMaxArity too: GCC 12 cannot tell that arity() is, and warns)
+  for (int k = 0; k < std::min(arity(op), kMaxArity); ++k) in.args[k] = inputOperand(k);
   p.code = {in};
   p.outputs = {0};
   return p;
