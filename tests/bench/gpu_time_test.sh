@@ -121,7 +121,7 @@ expect_error "--front: required" --out "$W/x"
 expect_error "--front: cannot read" --front "$W/none.json" --out "$W/x"
 echo '{"format": "lgp-front/1"}' >"$W/bad.json"
 expect_error "no members array" --front "$W/bad.json" --out "$W/x"
-expect_error "--lang: expected hlsl or glsl" --front "$FRONT" --out "$W/x" --lang cpp
+expect_error "--lang: expected a shader language (hlsl or glsl)" --front "$FRONT" --out "$W/x" --lang cpp
 expect_error "--invocations: must be a positive multiple of 128" --front "$FRONT" --out "$W/x" \
   --invocations 100
 # Only a CPU device and no --allow-cpu: the devices there are, by name.
