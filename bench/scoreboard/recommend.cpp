@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <optional>
 
 #include "board.hpp"
 #include "lgp/emit/emit.hpp"
 #include "lgp/emit/vulkan_run.hpp"
+#include "lgp/io/result.hpp"
 
 namespace lgp::board {
 
@@ -71,30 +73,119 @@ json verify(const json& front, size_t i, const Table& t) {
   }
   return out;
 }
+
+// The declared domain of the table's inputs (the training range where the spec gives none).
+std::vector<Interval> declaredDomain(const TableRun& r) {
+  std::vector<Interval> d;
+  for (size_t i = 0; i < r.train.numInputs(); ++i) {
+    auto it = r.spec.domain.find(r.train.input_names[i]);
+    if (it != r.spec.domain.end()) {
+      d.push_back(Interval{it->second.first, it->second.second, false});
+    } else {
+      const auto [lo, hi] = std::minmax_element(r.train.inputs[i].begin(), r.train.inputs[i].end());
+      d.push_back(Interval{*lo, *hi, false});
+    }
+  }
+  return d;
+}
+
+// The bound a member must hold on the declared domain: each output within the held-out truth's
+// range widened by that range's width on either side.
+std::vector<std::pair<double, double>> allowedRange(const Table& heldout) {
+  std::vector<std::pair<double, double>> a;
+  for (const auto& y : heldout.outputs) {
+    const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+    const double w = *hi - *lo;
+    a.push_back({*lo - w, *hi + w});
+  }
+  return a;
+}
+
+std::vector<Scored> countedFits(const TableRun& r) {
+  std::vector<Scored> out;
+  for (const auto& row : r.rows)
+    if (row.counted) out.push_back(row.published);
+  return out;
+}
 }  // namespace
 
 void recommend(TableRun& r, const std::filesystem::path& dir, const Options& o) {
-  const Snapshot& fin = r.snaps.back();
-  int pick = -1;
-  std::string why;
+  Snapshot& fin = r.snaps.back();
+  const std::vector<Interval> domain = declaredDomain(r);
+  const auto allowed = allowedRange(r.heldout);
+  std::vector<TargetTransform> transforms;
+  for (const auto& name : r.train.output_names) {
+    auto it = r.cfg.data.transforms.find(name);
+    transforms.push_back(it == r.cfg.data.transforms.end() ? TargetTransform::None : it->second);
+  }
+  // Only a member that holds on the whole declared domain is recommended (checked lazily,
+  // cheapest first).
+  std::vector<std::optional<DomainCheck>> checked(fin.members.size());
+  auto safe = [&](size_t i) -> const DomainCheck& {
+    if (!checked[i]) {
+      auto p = memberProgram(fin.front, i);
+      checked[i] = p ? checkOnDomain(*p, domain, allowed, transforms, 200)
+                     : DomainCheck{false, "", NAN, NAN, p.error()};
+    }
+    return *checked[i];
+  };
+  std::vector<size_t> order;
   for (size_t i = 0; i < fin.members.size(); ++i)
-    if (std::isfinite(fin.members[i].isa) && beatsAll(fin.members[i], r.fits) &&
-        (pick < 0 || fin.members[i].isa < fin.members[pick].isa))
-      pick = static_cast<int>(i);
+    if (std::isfinite(fin.members[i].isa)) order.push_back(i);
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return fin.members[a].isa < fin.members[b].isa; });
+  const std::vector<Scored> fits = countedFits(r);
+  int pick = -1, unsafe = 0;
+  std::string why;
+  for (size_t i : order)
+    if (beatsAll(fin.members[i], fits)) {
+      if (safe(i).safe) {
+        pick = static_cast<int>(i);
+        break;
+      }
+      ++unsafe;
+    }
   if (pick >= 0) {
     why =
-        "the cheapest member that beats every published fit of the table (held-out RMS and "
-        "max, every channel)";
+        "the cheapest member that beats every counted published fit of the table (held-out RMS "
+        "and max on the declared domain, every channel) and holds on the whole domain";
   } else {
-    pick = knee(fin.members);
-    why =
-        "no member beats every published fit: the knee of the front (furthest below the "
-        "chord in measured ISA against log RMS)";
+    std::vector<Scored> held;
+    std::vector<int> index;
+    for (size_t i = 0; i < fin.members.size(); ++i)
+      if (safe(i).safe) {
+        held.push_back(fin.members[i]);
+        index.push_back(static_cast<int>(i));
+      }
+    const int k = knee(held);
+    pick = k < 0 ? -1 : index[static_cast<size_t>(k)];
+    why = std::string(fits.empty() ? "no counted published fit"
+                                   : "no member beats every counted published fit and holds on "
+                                     "the domain") +
+          ": the knee of the members that hold on the domain (furthest below the chord in "
+          "measured ISA against log RMS)";
   }
+  if (unsafe > 0)
+    why += "; " + std::to_string(unsafe) + " cheaper member" + (unsafe > 1 ? "s" : "") +
+           " beating the fits left out: outside the bound on the domain";
   r.recommended = {{"member", pick}, {"why", why}};
   if (pick < 0) return;
+  const DomainCheck& dc = safe(static_cast<size_t>(pick));
+  json dom = json::object();
+  for (size_t i = 0; i < domain.size(); ++i)
+    dom[r.train.input_names[i]] = {domain[i].lo, domain[i].hi};
+  json bound = json::array();
+  for (const auto& [lo, hi] : allowed) bound.push_back({lo, hi});
+  r.recommended["domain_check"] = {
+      {"domain", dom}, {"bound", bound}, {"method", dc.method}, {"range", {dc.lo, dc.hi}}};
   r.recommended["isa"] = fin.members[pick].isa;
   r.recommended["formula"] = fin.members[pick].formula;
+  json heldout = json::array();
+  for (const auto& c : fin.members[pick].channels)
+    heldout.push_back({{"rmse", c.rmse}, {"max_abs", c.max_abs}});
+  r.recommended["heldout"] = heldout;
+  // The code is emitted for the declared domain: what --fast leaves unguarded is proven there.
+  fin.front["table"]["domain"] = dom;
   json files = json::object();
   for (const auto& language : emit::allLanguages()) {
     const emit::Language lang = language.lang;

@@ -12,7 +12,7 @@ namespace lgp::board {
 
 namespace {
 using nlohmann::json;
-constexpr const char* kFormat = "lgp-scoreboard-table/1";
+constexpr const char* kFormat = "lgp-scoreboard-table/2";
 
 // JSON has no NaN or infinity (nlohmann writes null); both read back as NaN, except an
 // infinite factor, kept as the string "inf" so that a perfect member stays "beaten".
@@ -34,7 +34,31 @@ Scored scoredFrom(const json& j) {
   for (const auto& c : j.at("heldout"))
     s.channels.push_back({number(c.at("rmse")), number(c.at("max_abs"))});
   s.formula = j.at("formula").get<std::string>();
+  s.form = j.value("form", std::string());
   return s;
+}
+
+json fitJson(const FitSpec& f) {
+  return {{"name", f.name},
+          {"forms", f.forms},
+          {"counted", f.counted},
+          {"source", f.source},
+          {"note", f.note}};
+}
+FitSpec fitFrom(const json& j) {
+  FitSpec f;
+  f.name = j.at("name").get<std::string>();
+  f.forms = j.at("forms").get<std::vector<std::string>>();
+  f.counted = j.at("counted").get<bool>();
+  f.source = j.at("source").get<std::string>();
+  f.note = j.at("note").get<std::string>();
+  return f;
+}
+
+// A record's file stem: the table's name, with ".seeded" for a run seeded with the published
+// fits (the board keeps both runs side by side).
+std::string stem(const std::string& table, const Settings& s) {
+  return table + (s.seed_references ? ".seeded" : "") + (s.edge_objective ? ".edges" : "");
 }
 
 std::string minutesTag(double m) {
@@ -70,6 +94,8 @@ Record recordFrom(const json& j) {
   rec.settings.threads = s.at("threads").get<int>();
   rec.settings.seed = s.at("seed").get<uint64_t>();
   rec.settings.minutes = s.at("minutes").get<std::vector<double>>();
+  rec.settings.seed_references = s.at("seed_references").get<bool>();
+  rec.settings.edge_objective = s.value("edge_objective", false);
   const json& t = j.at("timing");
   rec.timing.cpu = t.at("cpu").get<std::string>();
   rec.timing.wall_s = number(t.at("wall_s"));
@@ -80,7 +106,9 @@ Record recordFrom(const json& j) {
   r.spec.title = sp.at("title").get<std::string>();
   r.spec.config = sp.at("config").get<std::string>();
   r.spec.evals_per_minute = number(sp.at("evals_per_minute"));
-  r.spec.fits = sp.at("fits").get<std::vector<std::string>>();
+  for (const auto& f : sp.at("fits")) r.spec.fits.push_back(fitFrom(f));
+  for (const auto& [input, range] : sp.at("domain").items())
+    r.spec.domain[input] = {range.at(0).get<double>(), range.at(1).get<double>()};
   r.channels = j.at("channels").get<std::vector<std::string>>();
   r.train_desc = j.at("train_grid").get<std::string>();
   r.heldout_desc = j.at("heldout_grid").get<std::string>();
@@ -101,6 +129,9 @@ Record recordFrom(const json& j) {
     Row x;
     x.table = r.spec.name;
     x.fit = row.at("fit").get<std::string>();
+    x.counted = row.at("counted").get<bool>();
+    x.source = row.at("source").get<std::string>();
+    x.note = row.at("note").get<std::string>();
     x.published = scoredFrom(row.at("published"));
     for (const auto& m : row.at("lgp")) {
       Match y;
@@ -125,11 +156,13 @@ nlohmann::json scoredJson(const Scored& s) {
   json ch = json::array();
   for (const auto& c : s.channels)
     ch.push_back({{"rmse", number(c.rmse)}, {"max_abs", number(c.max_abs)}});
-  return {{"name", s.name},
-          {"isa_rdna2", number(s.isa)},
-          {"model_cost", number(s.model_cost)},
-          {"heldout", ch},
-          {"formula", s.formula}};
+  json j = {{"name", s.name},
+            {"isa_rdna2", number(s.isa)},
+            {"model_cost", number(s.model_cost)},
+            {"heldout", ch},
+            {"formula", s.formula}};
+  if (!s.form.empty()) j["form"] = s.form;
+  return j;
 }
 void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                  const std::filesystem::path& dir) {
@@ -143,7 +176,7 @@ void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                      {"evaluations", sn.evaluations},
                      {"wall_s", sn.wall_s},
                      {"members", members}});
-    std::ofstream(tables / (r.spec.name + ".front." + minutesTag(sn.minutes) + "min.json"))
+    std::ofstream(tables / (stem(r.spec.name, s) + ".front." + minutesTag(sn.minutes) + "min.json"))
         << portableFront(sn.front).dump(1) << "\n";
   }
   json fits = json::array();
@@ -157,36 +190,57 @@ void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                      {"rms_factor", number(m.rms_factor)},
                      {"max_factor", number(m.max_factor)},
                      {"beaten", m.beaten}});
-    rows.push_back({{"fit", row.fit}, {"published", scoredJson(row.published)}, {"lgp", lgp}});
+    rows.push_back({{"fit", row.fit},
+                    {"counted", row.counted},
+                    {"source", row.source},
+                    {"note", row.note},
+                    {"published", scoredJson(row.published)},
+                    {"lgp", lgp}});
   }
-  const json j = {
-      {"format", kFormat},
-      {"settings",
-       {{"quick", s.quick}, {"threads", s.threads}, {"seed", s.seed}, {"minutes", s.minutes}}},
-      {"spec",
-       {{"name", r.spec.name},
-        {"title", r.spec.title},
-        {"config", r.spec.config},
-        {"evals_per_minute", r.spec.evals_per_minute},
-        {"fits", r.spec.fits}}},
-      {"timing",
-       {{"cpu", t.cpu},
-        {"wall_s", t.wall_s},
-        {"cpu_s", t.cpu_s},
-        {"table_s", r.table_wall_s},
-        {"search_s", r.search_wall_s}}},
-      {"channels", r.channels},
-      {"train_grid", r.train_desc},
-      {"heldout_grid", r.heldout_desc},
-      {"measured", r.measured},
-      {"measure_note", r.measure_note},
-      {"snapshots", snaps},
-      {"fits", fits},
-      {"rows", rows},
-      {"recommended", r.recommended}};
+  const json j = {{"format", kFormat},
+                  {"settings",
+                   {{"quick", s.quick},
+                    {"threads", s.threads},
+                    {"seed", s.seed},
+                    {"minutes", s.minutes},
+                    {"seed_references", s.seed_references},
+                    {"edge_objective", s.edge_objective}}},
+                  {"spec",
+                   {{"name", r.spec.name},
+                    {"title", r.spec.title},
+                    {"config", r.spec.config},
+                    {"evals_per_minute", r.spec.evals_per_minute},
+                    {"fits",
+                     [&] {
+                       json a = json::array();
+                       for (const auto& f : r.spec.fits) a.push_back(fitJson(f));
+                       return a;
+                     }()},
+                    {"domain",
+                     [&] {
+                       json d = json::object();
+                       for (const auto& [input, range] : r.spec.domain)
+                         d[input] = {range.first, range.second};
+                       return d;
+                     }()}}},
+                  {"timing",
+                   {{"cpu", t.cpu},
+                    {"wall_s", t.wall_s},
+                    {"cpu_s", t.cpu_s},
+                    {"table_s", r.table_wall_s},
+                    {"search_s", r.search_wall_s}}},
+                  {"channels", r.channels},
+                  {"train_grid", r.train_desc},
+                  {"heldout_grid", r.heldout_desc},
+                  {"measured", r.measured},
+                  {"measure_note", r.measure_note},
+                  {"snapshots", snaps},
+                  {"fits", fits},
+                  {"rows", rows},
+                  {"recommended", r.recommended}};
   // Written beside and renamed over: a run stopped while writing leaves the old record whole.
-  const auto path = tables / (r.spec.name + ".json");
-  const auto tmp = tables / (r.spec.name + ".json.tmp");
+  const auto path = tables / (stem(r.spec.name, s) + ".json");
+  const auto tmp = tables / (stem(r.spec.name, s) + ".json.tmp");
   std::ofstream(tmp) << j.dump(1) << "\n";
   std::filesystem::rename(tmp, path);
 }
@@ -215,7 +269,7 @@ std::vector<Record> readRecords(const std::filesystem::path& dir,
     }
     try {
       Record rec = recordFrom(*j);
-      if (rec.run.spec.name + ".json" != f.filename().string())
+      if (stem(rec.run.spec.name, rec.settings) + ".json" != f.filename().string())
         throw std::runtime_error("/spec/name: '" + rec.run.spec.name + "' is not the file's name");
       out.push_back(std::move(rec));
     } catch (const std::exception& e) {

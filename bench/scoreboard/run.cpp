@@ -2,11 +2,13 @@
 // on the held-out grid, and the rows that compare them.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "board.hpp"
 #include "lgp/emit/gpu_cost.hpp"
 #include "lgp/emit/score.hpp"
+#include "lgp/eval/interpreter.hpp"
 #include "lgp/io/result.hpp"
 #include "lgp/search/search.hpp"
 
@@ -41,24 +43,27 @@ Expected<Scored> scoreOn(const Program& p, const Table& t, const RunConfig& cfg,
   return s;
 }
 
-// The configured references named as fits, as front entries scored on the training table.
+// Every form of every fit named by the spec, as front entries scored on the training table
+// (in the spec's order, the forms of a fit together).
 Expected<json> fitEntries(const TableRun& r, std::vector<NamedProgram>& programs) {
   auto all = emit::referencePrograms(r.cfg, r.train);
   if (!all) return all.status();
   json refs = json::array();
-  for (const auto& name : r.spec.fits) {
-    auto it = std::find_if(all->begin(), all->end(), [&](const auto& n) { return n.name == name; });
-    if (it == all->end())
-      return Status::error(r.spec.config + ": no reference named '" + name + "' (fits)");
-    emit::ScoreOptions so;
-    so.error = r.cfg.errorConfig(r.train.output_names);
-    so.error.transforms.clear();
-    auto j = emit::scoreProgram(it->program, r.train, so, {});
-    if (!j) return Status::error(name + ": " + j.error());
-    (*j)["name"] = name;
-    refs.push_back(*j);
-    programs.push_back(*it);
-  }
+  for (const auto& fit : r.spec.fits)
+    for (const auto& name : fit.forms) {
+      auto it =
+          std::find_if(all->begin(), all->end(), [&](const auto& n) { return n.name == name; });
+      if (it == all->end())
+        return Status::error(r.spec.config + ": no reference named '" + name + "' (fits)");
+      emit::ScoreOptions so;
+      so.error = r.cfg.errorConfig(r.train.output_names);
+      so.error.transforms.clear();
+      auto j = emit::scoreProgram(it->program, r.train, so, {});
+      if (!j) return Status::error(name + ": " + j.error());
+      (*j)["name"] = name;
+      refs.push_back(*j);
+      programs.push_back(*it);
+    }
   return refs;
 }
 
@@ -73,6 +78,7 @@ void search(TableRun& r, const Options& o) {
   for (double m : o.minutes)
     budgets.push_back(std::max<uint64_t>(1, static_cast<uint64_t>(m * r.spec.evals_per_minute)));
   cfg.search.max_evaluations = budgets.back();
+  cfg.search.seed_references = o.seed_references;
   Search s(cfg, r.train);
   if (cfg.search.seed_references)
     if (auto seeds = emit::referencePrograms(cfg, r.train))
@@ -154,19 +160,58 @@ Status runTable(TableRun& r, const Options& o) {
       sn.members.push_back(std::move(*s));
     }
   }
-  for (size_t f = 0; f < fit_programs.size(); ++f) {
-    auto s = scoreOn(fit_programs[f].program, r.heldout, r.cfg, fit_programs[f].name);
+  size_t next_form = 0;
+  for (const auto& fit : r.spec.fits) {
+    // The fit's forms compute the same values; it is charged the cheapest one's ISA.
+    std::vector<Program> forms;
+    std::vector<double> isa;
+    for (size_t k = 0; k < fit.forms.size(); ++k) {
+      forms.push_back(fit_programs[next_form + k].program);
+      isa.push_back(rdna2((*refs)[next_form + k]));
+    }
+    auto cheapest = cheapestForm(forms, isa, r.heldout, fit.forms);
+    if (!cheapest) return Status::error(fit.name + ": " + cheapest.error());
+    auto s = scoreOn(forms[*cheapest], r.heldout, r.cfg, fit.name);
     if (!s) return s.status();
-    s->isa = rdna2((*refs)[f]);
+    s->isa = isa[*cheapest];
+    s->form = fit.forms[*cheapest];
+    next_form += fit.forms.size();
     r.fits.push_back(*s);
     Row row;
     row.table = r.spec.name;
-    row.fit = fit_programs[f].name;
+    row.fit = fit.name;
+    row.counted = fit.counted;
+    row.source = fit.source;
+    row.note = fit.note;
     row.published = *s;
     for (const auto& sn : r.snaps) row.lgp.push_back(bestMatch(*s, sn.members));
     r.rows.push_back(std::move(row));
   }
   return Status::ok();
+}
+
+Expected<size_t> cheapestForm(const std::vector<Program>& forms, const std::vector<double>& isa,
+                              const Table& t, const std::vector<std::string>& names) {
+  if (forms.empty()) return Status::error("no form");
+  const auto first = evaluateReference(forms[0], t);
+  size_t best = 0;
+  for (size_t k = 0; k < forms.size(); ++k) {
+    const auto v = evaluateReference(forms[k], t);
+    if (v.size() != first.size()) return Status::error("'" + names[k] + "' has other outputs");
+    for (size_t o = 0; o < v.size(); ++o) {
+      double scale = 0, diff = 0;
+      for (size_t i = 0; i < v[o].size(); ++i) {
+        scale = std::max(scale, std::fabs(first[o][i]));
+        diff = std::max(diff, std::fabs(v[o][i] - first[o][i]));
+      }
+      if (!(diff <= 1e-4 * scale))
+        return Status::error("its form '" + names[k] + "' computes other values than '" + names[0] +
+                             "' (by " + std::to_string(diff) + " of " + std::to_string(scale) +
+                             ")");
+    }
+    if (isa[k] < isa[best] || (std::isnan(isa[best]) && !std::isnan(isa[k]))) best = k;
+  }
+  return best;
 }
 
 void addOperon(std::vector<TableRun>& runs, const json& operon) {

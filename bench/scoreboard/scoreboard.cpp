@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cxxopts.hpp>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -77,9 +78,13 @@ int check(const std::vector<TableRun>& runs) {
   }
   return bad ? 1 : 0;
 }
-// report.md, summary.json and timing.json from every record in `out` run with `settings`, in the
-// spec's order (tables the spec no longer names last). False when there is none.
-bool report(const std::vector<TableSpec>& specs, const Settings& settings, const fs::path& out) {
+// report.md, summary.json, timing.json and readme.md from every record in `out` run with
+// `settings` (the unseeded board, in the spec's order; tables the spec no longer names last) and
+// the records of the same settings seeded with the published fits. False when there is none.
+bool report(const std::vector<TableSpec>& specs, Settings settings, const fs::path& out) {
+  settings.seed_references = false;
+  Settings seeded_settings = settings;
+  seeded_settings.seed_references = true;
   std::vector<std::string> skipped;
   auto records = readRecords(out, skipped);
   for (const auto& s : skipped)
@@ -87,38 +92,53 @@ bool report(const std::vector<TableSpec>& specs, const Settings& settings, const
   RunInfo info;
   info.settings = settings;
   std::vector<TableRun> runs;
+  std::map<std::string, TableRun> seeded;
   std::set<std::string> cpus;
   std::vector<bool> taken(records.size(), false);
-  auto take = [&](size_t i) {
-    runs.push_back(std::move(records[i].run));
+  auto account = [&](size_t i) {
     info.wall_s += records[i].timing.wall_s;
     info.cpu_s += records[i].timing.cpu_s;
     cpus.insert(records[i].timing.cpu);
     taken[i] = true;
   };
-  for (const auto& spec : specs) {
+  auto find = [&](const std::string& name, const Settings& s) {
     size_t i = 0;
     while (i < records.size() &&
-           !(records[i].settings == settings && records[i].run.spec.name == spec.name))
+           (taken[i] || !(records[i].settings == s && records[i].run.spec.name == name)))
       ++i;
-    if (i < records.size())
-      take(i);
-    else
+    return i;
+  };
+  for (const auto& spec : specs) {
+    if (size_t i = find(spec.name, settings); i < records.size()) {
+      account(i);
+      runs.push_back(std::move(records[i].run));
+    } else {
       info.missing.push_back(spec.name);
+    }
   }
   for (size_t i = 0; i < records.size(); ++i)
-    if (!taken[i]) {
-      if (records[i].settings == settings)
-        take(i);
-      else
-        info.other_settings.push_back(records[i].run.spec.name);
+    if (!taken[i] && records[i].settings == settings) {
+      account(i);
+      runs.push_back(std::move(records[i].run));
     }
+  for (size_t i = 0; i < records.size(); ++i) {
+    if (taken[i]) continue;
+    if (records[i].settings == seeded_settings) {
+      account(i);
+      const std::string name = records[i].run.spec.name;
+      seeded.emplace(name, std::move(records[i].run));
+    } else {
+      info.other_settings.push_back(records[i].run.spec.name +
+                                    (records[i].settings.seed_references ? " (seeded)" : ""));
+    }
+  }
   if (runs.empty()) return false;
   for (const auto& c : cpus) info.cpu += (info.cpu.empty() ? "" : "; ") + c;
   if (fs::exists(out / "operon.json")) addOperon(runs, readJson(out / "operon.json"));
-  const std::string sum = writeReport(runs, info, out);
-  std::printf("%s\nreport: %s (%zu tables; wall %.1f s, CPU %.1f s, %s)\n", sum.c_str(),
-              (out / "report.md").c_str(), runs.size(), info.wall_s, info.cpu_s, info.cpu.c_str());
+  const std::string sum = writeReport(runs, seeded, info, out);
+  std::printf("%s\nreport: %s (%zu tables, %zu seeded; wall %.1f s, CPU %.1f s, %s)\n", sum.c_str(),
+              (out / "report.md").c_str(), runs.size(), seeded.size(), info.wall_s, info.cpu_s,
+              info.cpu.c_str());
   return true;
 }
 }  // namespace
@@ -137,6 +157,10 @@ int main(int argc, char** argv) {
       "threads", "search threads", cxxopts::value<int>()->default_value("2"))(
       "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))(
       "cache-dir", "table cache (default: lgp data's)", cxxopts::value<std::string>())(
+      "seed-references",
+      "start the search from the published fits (a second board beside the unseeded one)")(
+      "edge-objective",
+      "the declared domain's edge rows are part of the search's objective (data.edges)")(
       "no-vulkan", "do not run the recommended members on lavapipe")(
       "report-only", "run nothing: rebuild the report from the folder's table records")(
       "check",
@@ -150,6 +174,8 @@ int main(int argc, char** argv) {
   o.threads = args["threads"].as<int>();
   o.seed = args["seed"].as<uint64_t>();
   o.vulkan = !args.count("no-vulkan");
+  o.seed_references = args.count("seed-references") > 0;
+  o.edge_objective = args.count("edge-objective") > 0;
   const bool report_only = args.count("report-only") > 0;
   if (args.count("cache-dir")) o.cache_dir = args["cache-dir"].as<std::string>();
   o.minutes.clear();
@@ -200,7 +226,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lgp_scoreboard: %s: search to %g nominal minutes\n", spec.name.c_str(),
                  o.minutes.back());
     if (auto st = runTable(r, o); !st) die(spec.name + ": " + st.message());
-    recommend(r, out, o);
+    // A seeded board's members are not what the headline ships: they go apart.
+    const fs::path rec_dir = o.seed_references ? out / "seeded" : out;
+    fs::create_directories(rec_dir);
+    recommend(r, rec_dir, o);
     const RecordTiming timing{
         cpuModel(), std::chrono::duration<double>(std::chrono::steady_clock::now() - tw).count(),
         cpuSeconds() - tc};

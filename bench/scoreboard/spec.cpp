@@ -12,6 +12,41 @@ namespace {
   std::fprintf(stderr, "lgp_scoreboard: error: %s\n", msg.c_str());
   std::exit(2);
 }
+// A fit: a reference name, or {"name", "forms", "counted", "source", "note"}.
+FitSpec parseFit(const nlohmann::json& f, const std::string& at) {
+  FitSpec fit;
+  if (f.is_string()) {
+    fit.name = f.get<std::string>();
+    fit.forms = {fit.name};
+    return fit;
+  }
+  if (!f.is_object() || !f.contains("name") || !f["name"].is_string())
+    die(at + ": must be a reference name or an object with \"name\"");
+  fit.name = f["name"];
+  if (f.contains("forms")) {
+    if (!f["forms"].is_array() || f["forms"].empty()) die(at + "/forms: must name references");
+    for (const auto& n : f["forms"]) {
+      if (!n.is_string()) die(at + "/forms: must be reference names (strings)");
+      fit.forms.push_back(n);
+    }
+  } else {
+    fit.forms = {fit.name};
+  }
+  if (f.contains("counted")) {
+    if (!f["counted"].is_boolean()) die(at + "/counted: must be true or false");
+    fit.counted = f["counted"];
+  }
+  for (const char* k : {"source", "note"})
+    if (f.contains(k)) {
+      if (!f[k].is_string()) die(at + "/" + k + ": must be a string");
+      (std::string(k) == "source" ? fit.source : fit.note) = f[k];
+    }
+  for (const auto& k : f.items())
+    if (k.key() != "name" && k.key() != "forms" && k.key() != "counted" && k.key() != "source" &&
+        k.key() != "note")
+      die(at + "/" + k.key() + ": unknown key");
+  return fit;
+}
 }  // namespace
 
 std::vector<TableSpec> parseSpec(const nlohmann::json& j, const std::string& file) {
@@ -35,13 +70,20 @@ std::vector<TableSpec> parseSpec(const nlohmann::json& j, const std::string& fil
     s.evals_per_minute = t["evals_per_minute"];
     if (!t.contains("fits") || !t["fits"].is_array() || t["fits"].empty())
       die(at + "/fits: name at least one of the config's references");
-    for (const auto& f : t["fits"]) {
-      if (!f.is_string()) die(at + "/fits: must be reference names (strings)");
-      s.fits.push_back(f);
+    for (size_t k = 0; k < t["fits"].size(); ++k)
+      s.fits.push_back(parseFit(t["fits"][k], at + "/fits/" + std::to_string(k)));
+    if (t.contains("domain")) {
+      if (!t["domain"].is_object()) die(at + "/domain: must be an object of input -> [lo, hi]");
+      for (const auto& [input, range] : t["domain"].items()) {
+        if (!range.is_array() || range.size() != 2 || !range[0].is_number() ||
+            !range[1].is_number() || !(range[0].get<double>() < range[1].get<double>()))
+          die(at + "/domain/" + input + ": must be [lo, hi] with lo < hi");
+        s.domain[input] = {range[0].get<double>(), range[1].get<double>()};
+      }
     }
     for (const auto& k : t.items())
       if (k.key() != "name" && k.key() != "title" && k.key() != "config" &&
-          k.key() != "evals_per_minute" && k.key() != "fits")
+          k.key() != "evals_per_minute" && k.key() != "fits" && k.key() != "domain")
         die(at + "/" + k.key() + ": unknown key");
     out.push_back(std::move(s));
   }

@@ -1,9 +1,12 @@
-// The training table of a row's run config and its held-out grid. The held-out grid takes the
-// midpoints between neighbouring training points on every axis: every point is new, none lies
-// outside the training domain, and the same integrator computes it.
+// The training table of a row's run config and its held-out set: per axis the midpoints
+// between neighbouring training points, the declared domain's edges and random values, as a
+// product grid computed by the same integrator. Every point but an edge shared with the
+// training grid is new, and the set reaches where shaders evaluate (n.v down to 1e-4).
 #include <algorithm>
+#include <random>
 
 #include "board.hpp"
+#include "lgp/datasets/edges.hpp"
 #include "lgp/datasets/generate.hpp"
 
 namespace lgp::board {
@@ -34,12 +37,13 @@ std::vector<double> midpoints(const std::vector<double>& v) {
   return out;
 }
 
-// The scene with every axis replaced by explicit values f(axis).
+// The scene with every axis replaced by explicit values f(axis index, its sorted values).
 template <class F>
 Expected<ds::Scene> regridded(const ds::Scene& s, F f, double min_abs_error,
                               const std::string& origin) {
   json j = ds::toJson(s);
-  for (const auto& a : s.grid) j["grid"][a.name] = {{"values", f(sortedValues(a))}};
+  for (size_t i = 0; i < s.grid.size(); ++i)
+    j["grid"][s.grid[i].name] = {{"values", f(i, sortedValues(s.grid[i]))}};
   if (j["accuracy"]["abs_error"].get<double>() < min_abs_error)
     j["accuracy"]["abs_error"] = min_abs_error;
   return ds::parseScene(j, origin);
@@ -57,17 +61,43 @@ std::string describe(const ds::Scene& s) {
   return d + "; " + std::to_string(s.rows()) + " rows";
 }
 
-Expected<Table> tableOf(const ds::Scene& s, const RunConfig& cfg, const Options& o,
-                        const std::string& origin) {
+Expected<RawTable> rawOf(const ds::Scene& s, const Options& o, const std::string& origin) {
   auto g = ds::generateCached(s, o.cache_dir.empty() ? ds::defaultCacheDir() : o.cache_dir);
   if (!g) return Status::error(origin + ": " + g.error());
   if (!g->table.converged || !g->table.table.meta.value("target_met", false))
     std::fprintf(stderr, "lgp_scoreboard: warning: %s: accuracy target not met (%.3g)\n",
                  origin.c_str(), g->table.max_error);
-  return selectColumns(ds::toRawTable(g->table), cfg.data.inputs, cfg.data.outputs,
-                       cfg.data.weights, origin);
+  return ds::toRawTable(g->table);
+}
+
+Expected<Table> tableOf(const ds::Scene& s, const RunConfig& cfg, const Options& o,
+                        const std::string& origin) {
+  auto raw = rawOf(s, o, origin);
+  if (!raw) return raw.status();
+  return selectColumns(*raw, cfg.data.inputs, cfg.data.outputs, cfg.data.weights, origin);
 }
 }  // namespace
+
+std::vector<double> heldoutAxis(const std::vector<double>& train, double lo, double hi, int random,
+                                uint64_t seed) {
+  std::vector<double> v;
+  for (double m : midpoints(train))
+    if (m >= lo && m <= hi) v.push_back(m);
+  v.push_back(lo);
+  v.push_back(hi);
+  const double first = train.empty() ? hi : std::max(lo, train.front());
+  if (lo > 0)
+    for (double x = 2 * lo; x < first; x *= 2) v.push_back(x);
+  else
+    for (double f : {1e-3, 1e-2}) v.push_back(lo + f * (hi - lo));
+  v.push_back(hi - 1e-3 * (hi - lo));
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(lo, hi);
+  for (int i = 0; i < random; ++i) v.push_back(u(rng));
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
 
 Status loadTables(TableRun& r, const std::filesystem::path& spec_dir, const Options& o) {
   (void)spec_dir;
@@ -79,19 +109,54 @@ Status loadTables(TableRun& r, const std::filesystem::path& spec_dir, const Opti
   ds::Scene train = *scene;
   if (o.quick) {
     auto q = regridded(
-        *scene, [](const std::vector<double>& v) { return thinned(v, 5); }, 1e-4, path.string());
+        *scene, [](size_t, const std::vector<double>& v) { return thinned(v, 5); }, 1e-4,
+        path.string());
     if (!q) return q.status();
     train = *q;
   }
-  auto held = regridded(train, midpoints, 0, path.string() + " (held out)");
+  std::string undeclared;
+  auto held = regridded(
+      train,
+      [&](size_t axis, const std::vector<double>& v) {
+        const auto& a = train.grid[axis];
+        auto d = r.spec.domain.find(a.name);
+        double lo = v.front(), hi = v.back();
+        if (d != r.spec.domain.end()) {
+          lo = d->second.first;
+          hi = d->second.second;
+        } else {
+          undeclared += (undeclared.empty() ? "" : ", ") + a.name;
+        }
+        return heldoutAxis(v, lo, hi, o.quick ? 3 : 8, axis + 1);
+      },
+      0, path.string() + " (held out)");
   if (!held) return held.status();
+  if (!undeclared.empty())
+    std::fprintf(stderr, "lgp_scoreboard: %s: no declared domain for %s: its training range\n",
+                 r.spec.name.c_str(), undeclared.c_str());
   auto t = tableOf(train, r.cfg, o, path.string());
   if (!t) return t.status();
+  // The edge objective: the declared domain's edge rows join the training table (as
+  // data.edges does for lgp run), generated at values the held-out set does not use.
+  if (o.edge_objective) {
+    r.cfg.data.edges.domain = r.spec.domain;
+    auto es = ds::edgeScene(train, r.spec.domain, path.string() + " (edges)");
+    if (!es) return es.status();
+    auto raw = rawOf(*es, o, path.string() + " (edges)");
+    if (!raw) return raw.status();
+    if (auto st = ds::appendEdgeRows(*t, train, *raw, r.cfg.data.edges, r.cfg.data.weights,
+                                     path.string() + " (edges)");
+        !st)
+      return st;
+  }
   auto h = tableOf(*held, r.cfg, o, path.string() + " (held out)");
   if (!h) return h.status();
   r.train = std::move(*t);
   r.heldout = std::move(*h);
   r.train_desc = describe(train);
+  if (r.train.meta.contains("edges"))
+    r.train_desc += " + " + std::to_string(r.train.meta["edges"]["rows"].get<size_t>()) +
+                    " edge rows (weight 1)";
   r.heldout_desc = describe(*held);
   return Status::ok();
 }

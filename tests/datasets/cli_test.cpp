@@ -2,6 +2,8 @@
 // generated table loads anywhere a file table does), CSV + metadata, plots and the cache.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -144,6 +146,74 @@ TEST(DataCli, RunConfigMayNameAScene) {
   fs::remove_all(d);
 }
 
+// data.edges (issue 52): the rows between the grid and the declared domain's edge join the
+// table, computed by the scene's integrator, weighted, the ends themselves left to held-out
+// sets; a config that cannot have them says why.
+TEST(DataCli, EdgeRowsJoinTheTableWhereTheDomainPassesTheGrid) {
+  const fs::path d = freshDir("edges");
+  write(d / "scene.json", R"({"outputs": ["E"],
+    "grid": {"mu": {"count": 5, "range": [0.0625, 1]}, "r": {"count": 4, "range": [0.25, 1]}},
+    "accuracy": {"abs_error": 1e-5}})");
+  nlohmann::json j = {
+      {"data",
+       {{"scene", "scene.json"},
+        {"cache_dir", "cache"},
+        {"edges", {{"domain", {{"mu", {1e-4, 1}}, {"r", {0.01, 1}}}}, {"weight", 2}}}}}};
+  auto cfg = lgp::parseRunConfig(j, d);
+  ASSERT_TRUE(cfg) << cfg.error();
+  auto t = lgp::cli::loadRunTable(*cfg);
+  ASSERT_TRUE(t) << t.error();
+  // mu: 1e-4 * sqrt(2) * 2^k below 0.0625 (9 values); r: 0.01 * sqrt(2) * 2^k below 0.25 (5).
+  // (5 + 9) x (4 + 5) rows, less the 20 of the grid.
+  EXPECT_EQ(t->rows(), 20u + 106u);
+  ASSERT_EQ(t->weights.size(), t->rows());
+  for (size_t r = 0; r < t->rows(); ++r) EXPECT_EQ(t->weights[r], r < 20 ? 1.0 : 2.0) << r;
+  EXPECT_EQ(t->meta["edges"]["rows"], 106);
+  const auto& mu = t->inputs[0];
+  const auto& rr = t->inputs[1];
+  EXPECT_DOUBLE_EQ(*std::min_element(mu.begin(), mu.end()), 1e-4 * std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(*std::min_element(rr.begin(), rr.end()), 0.01 * std::sqrt(2.0));
+  // An edge row holds what the integrator gives at its point.
+  const size_t row = std::min_element(mu.begin(), mu.end()) - mu.begin();
+  auto one = lgp::datasets::parseScene(nlohmann::json::parse(
+      R"({"outputs": ["E"], "accuracy": {"abs_error": 1e-6}, "grid": {"mu": {"values": [)" +
+      lgp::formatDouble(mu[row]) + R"(]}, "r": {"values": [)" + lgp::formatDouble(rr[row]) +
+      "]}}}"));
+  ASSERT_TRUE(one) << one.error();
+  auto g = lgp::datasets::generate(*one);
+  ASSERT_TRUE(g) << g.error();
+  const auto raw = lgp::datasets::toRawTable(*g);
+  const size_t e = std::find(raw.names.begin(), raw.names.end(), "E") - raw.names.begin();
+  EXPECT_NEAR(t->outputs[0][row], raw.columns[e][0], 2e-5);
+
+  auto refused = [&](nlohmann::json data, const std::string& why) {
+    nlohmann::json c = {{"data", std::move(data)}};
+    auto rc = lgp::parseRunConfig(c, d);
+    std::string err = rc ? "" : rc.error();
+    if (rc) {
+      auto tt = lgp::cli::loadRunTable(*rc);
+      EXPECT_FALSE(tt) << why;
+      if (!tt) err = tt.error();
+    }
+    EXPECT_NE(err.find(why), std::string::npos) << err;
+  };
+  nlohmann::json bad = j["data"];
+  bad["edges"]["domain"] = {{"eta", {1, 3}}};
+  refused(bad, "/data/edges/domain: eta: not an input of the scene's grid");
+  bad["edges"]["domain"] = {{"mu", {0.1, 0.9}}};
+  refused(bad, "the declared domain adds no value to the grid");
+  bad["edges"]["domain"] = {{"mu", {1, 1e-4}}};
+  refused(bad, "/data/edges/domain/mu: must be [lo, hi]");
+  bad["edges"]["domain"] = {{"mu", {1e-4, 1}}};
+  bad["edges"]["weight"] = 0;
+  refused(bad, "/data/edges/weight: must be in (0,");
+  bad = j["data"];
+  bad.erase("scene");
+  bad["path"] = "t.csv";
+  refused(bad, "/data/edges: needs data.scene");
+  fs::remove_all(d);
+}
+
 // Hardening round 4, F10: a checksum-valid entry that the run's checks refuse (here a value
 // beyond float32, in a row the spot check may not draw) failed every run of its scene, was
 // never regenerated, and the message blamed the scene file. It is regenerated once now.
@@ -169,7 +239,8 @@ TEST(DataCli, UnusableCacheEntryIsRegenerated) {
   char sum[17];
   std::snprintf(sum, sizeof sum, "%016llx", static_cast<unsigned long long>(h));
   std::ofstream(entry, std::ios::binary | std::ios::trunc)
-      << "lgp-cache/1 " << sum << " " << text.size() << "\n" << text;
+      << "lgp-cache/1 " << sum << " " << text.size() << "\n"
+      << text;
   auto t = lgp::cli::loadRunTable(*cfg);
   ASSERT_TRUE(t) << t.error();
   EXPECT_EQ(t->outputs, truth->outputs);
