@@ -27,7 +27,8 @@ using nlohmann::json;
 json fullConfig() {
   return json::parse(R"({
     "data": {"path": "t.csv", "inputs": ["x", "y"], "outputs": ["f"], "weights": "w",
-             "cache_dir": "-", "transforms": {"f": "sqrt"}},
+             "cache_dir": "-", "transforms": {"f": "sqrt"},
+             "edges": {"domain": {"x": [0.001, 2]}, "weight": 0.5}},
     "program": {"max_length": 40, "constants": 12, "output_mode": "designated",
                 "ops": ["add", "mul", "exp2", "sin"], "init_min_length": 3, "init_max_length": 9,
                 "const_min": -3, "const_max": 4, "genes": 2},
@@ -56,7 +57,11 @@ json fullConfig() {
                "archive": {"max_size": 123, "eps_log10_error": 0.01, "eps_cost": 0.2,
                            "eps_discontinuity": 0.3},
                "exhaustive": {"max_ops": 2, "ops": ["add", "mul"], "constants": 2,
-                              "seconds": 3, "screen_rows": 64, "keep": 5}},
+                              "seconds": 3, "screen_rows": 64, "keep": 5},
+               "structured": {"max_degree": 3, "rational": false, "exp2": false,
+                              "sqrt_inputs": false, "max_rows": 1000, "share": 0.5},
+               "stages": {"islands": 2, "population": 20, "retarget": 7, "max_length": 12,
+                          "constants": 4, "modes": ["mul"], "bases": 3}},
     "eval": {"block_size": 64},
     "output": {"front_json": "f.json", "front_csv": "f.csv", "progress_interval_s": 2,
                "progress_cost_levels": [3, 9], "checkpoint": "c.json",
@@ -115,8 +120,8 @@ TEST(ConfigRoundTrip, TheFullConfigSetsEveryFieldTheParserReads) {
     if (f == "/mpi/launcher" || f == "/mpi/hostfile") continue;
     // The other form of /data/path (one of the two): SceneFormRoundTrips covers it.
     if (f == "/data/scene") continue;
-    EXPECT_TRUE(set.count(f) || at(full, f)) << "the parser reads " << f
-                                             << ", which fullConfig() does not set: add it";
+    EXPECT_TRUE(set.count(f) || at(full, f))
+        << "the parser reads " << f << ", which fullConfig() does not set: add it";
   }
 }
 
@@ -167,6 +172,8 @@ std::optional<RunConfig> variant(const json& full, const std::string& f) {
     v = "two_step";
   else if (f == "/search/refine/archive_order")
     v = "accurate";
+  else if (f == "/data/edges/domain/x")
+    v = {0.002, 2};
   else if (v.is_boolean())
     v = !v.get<bool>();
   else if (v.is_number_integer())

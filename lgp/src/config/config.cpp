@@ -199,6 +199,24 @@ void parseData(const nlohmann::json& j, DataConfig& d) {
       d.transforms[it.key()] = *tr;
     }
   }
+  if (o.has("edges")) {
+    Obj e(o.at("edges"), o.path("edges"));
+    if (!e.has("domain") || !e.at("domain").is_object() || e.at("domain").empty())
+      fail(e.path("domain"), "must be a non-empty object of input -> [lo, hi]");
+    const auto& dom = e.at("domain");
+    for (auto it = dom.begin(); it != dom.end(); ++it) {
+      const std::string p = jsonPath(e.path("domain"), it.key());
+      const auto& v = it.value();
+      if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number() ||
+          !std::isfinite(v[0].get<double>()) || !std::isfinite(v[1].get<double>()) ||
+          !(v[0].get<double>() < v[1].get<double>()))
+        fail(p, "must be [lo, hi], finite numbers with lo < hi (got " + v.dump() + ")");
+      if (auto why = controlCharacterReason(it.key()); !why.empty()) fail(p, why);
+      d.edges.domain[it.key()] = {v[0].get<double>(), v[1].get<double>()};
+    }
+    e.number("weight", d.edges.weight, 0, 1e6, true);
+    e.finish();
+  }
   o.finish();
   // These texts reach messages and the comments of emitted code.
   for (const auto& [key, text] : {std::pair<const char*, const std::string*>{"path", &d.path},
@@ -469,6 +487,44 @@ void parseExhaustive(const nlohmann::json& j, ExhaustiveConfig& c) {
   o.finish();
 }
 
+void parseStructured(const nlohmann::json& j, StructuredConfig& c) {
+  Obj o(j, "/search/structured");
+  o.integer("max_degree", c.max_degree, 0, 16);
+  o.boolean("rational", c.rational);
+  o.boolean("exp2", c.exp2);
+  o.boolean("sqrt_inputs", c.sqrt_inputs);
+  o.integer("max_rows", c.max_rows, 64, 1 << 24);
+  o.number("share", c.share, 0, 1);
+  o.finish();
+}
+
+void parseStages(const nlohmann::json& j, StageConfig& c) {
+  Obj o(j, "/search/stages");
+  o.integer("islands", c.islands, 0, 64);
+  o.integer("population", c.population, 4, 1 << 20);
+  o.integer("retarget", c.retarget, 1, 1 << 20);
+  o.integer("max_length", c.max_length, 1, 128);
+  o.integer("constants", c.constants, 0, 64);
+  o.integer("bases", c.bases, 1, 1024);
+  if (o.has("modes")) {
+    const auto& v = o.at("modes");
+    if (!v.is_array() || v.empty()) fail(o.path("modes"), "must be a non-empty array of add, mul");
+    c.modes.clear();
+    for (size_t i = 0; i < v.size(); ++i) {
+      const std::string p = jsonPath(o.path("modes"), i);
+      if (!v[i].is_string()) fail(p, "must be add or mul");
+      const std::string m = v[i].get<std::string>();
+      if (m == "add")
+        c.modes.push_back(StageMode::Add);
+      else if (m == "mul")
+        c.modes.push_back(StageMode::Mul);
+      else
+        fail(p, "'" + m + "' is not one of add, mul");
+    }
+  }
+  o.finish();
+}
+
 void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   Obj o(j, "/search");
   o.integer("population", s.population, 4, 1 << 20);
@@ -489,6 +545,8 @@ void parseSearch(const nlohmann::json& j, SearchConfig& s) {
   if (o.has("refine")) parseRefine(o.at("refine"), s.refine);
   if (o.has("archive")) parseArchive(o.at("archive"), s.archive);
   if (o.has("exhaustive")) parseExhaustive(o.at("exhaustive"), s.exhaustive);
+  if (o.has("structured")) parseStructured(o.at("structured"), s.structured);
+  if (o.has("stages")) parseStages(o.at("stages"), s.stages);
   o.finish();
 }
 
@@ -748,6 +806,11 @@ nlohmann::json toJson(const RunConfig& c) {
     for (const auto& [k, v] : c.data.transforms) t[k] = std::string(toString(v));
     data["transforms"] = t;
   }
+  if (!c.data.edges.domain.empty()) {
+    json dom = json::object();
+    for (const auto& [k, v] : c.data.edges.domain) dom[k] = {v.first, v.second};
+    data["edges"] = {{"domain", dom}, {"weight", c.data.edges.weight}};
+  }
   json ops = json::array();
   for (Op op : c.program.ops.empty() ? defaultOps() : c.program.ops)
     ops.push_back(std::string(opName(op)));
@@ -850,7 +913,27 @@ nlohmann::json toJson(const RunConfig& c) {
               {"constants", s.exhaustive.constants},
               {"seconds", s.exhaustive.seconds},
               {"screen_rows", s.exhaustive.screen_rows},
-              {"keep", s.exhaustive.keep}}}}},
+              {"keep", s.exhaustive.keep}}},
+            {"structured",
+             {{"max_degree", s.structured.max_degree},
+              {"rational", s.structured.rational},
+              {"exp2", s.structured.exp2},
+              {"sqrt_inputs", s.structured.sqrt_inputs},
+              {"max_rows", s.structured.max_rows},
+              {"share", s.structured.share}}},
+            {"stages",
+             {{"islands", s.stages.islands},
+              {"population", s.stages.population},
+              {"retarget", s.stages.retarget},
+              {"max_length", s.stages.max_length},
+              {"constants", s.stages.constants},
+              {"modes",
+               [&] {
+                 nlohmann::json a = nlohmann::json::array();
+                 for (StageMode m : s.stages.modes) a.push_back(std::string(toString(m)));
+                 return a;
+               }()},
+              {"bases", s.stages.bases}}}}},
           {"eval", {{"block_size", c.eval.block_size}}},
           {"output",
            {{"front_json", c.output.front_json},

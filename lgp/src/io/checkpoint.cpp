@@ -47,11 +47,11 @@ Status checkClaimedError(Scorer& scorer, const Program& p, const Objectives& cla
 template <class T>
 Expected<T> counter(const nlohmann::json& st, const char* key) {
   const auto& v = st.at(key);
-  if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned() &&
-                                 v.get<int64_t>() < 0))
+  if (!v.is_number_integer() ||
+      (v.is_number_integer() && !v.is_number_unsigned() && v.get<int64_t>() < 0))
     return Status::error(std::string("checkpoint: /") + key + ": must be an integer >= 0");
-  if (v.is_number_unsigned() && v.get<uint64_t>() > static_cast<uint64_t>(
-                                                         std::numeric_limits<T>::max()))
+  if (v.is_number_unsigned() &&
+      v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<T>::max()))
     return Status::error(std::string("checkpoint: /") + key + ": out of range");
   return v.get<T>();
 }
@@ -91,29 +91,70 @@ std::string configDigest(const RunConfig& cfg, const Table& table) {
   return buf;
 }
 
+nlohmann::json islandToJson(const Search::Island& isl) {
+  nlohmann::json pop = nlohmann::json::array();
+  for (const auto& ind : isl.pop)
+    pop.push_back({{"program", toJson(ind.program)},
+                   {"obj", objectivesToJson(ind.obj)},
+                   {"refined", ind.refined}});
+  // Ranks and crowding come from the last survival's pool (see Search::survive()), which a
+  // resumed run cannot recompute: they are stored. JSON has no infinity: boundary points are
+  // null.
+  nlohmann::json crowd = nlohmann::json::array();
+  for (double c : isl.crowd) crowd.push_back(std::isfinite(c) ? nlohmann::json(c) : nullptr);
+  return {{"population", pop},
+          {"rank", isl.rank},
+          {"crowd", crowd},
+          {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
+          {"stagnant", isl.stagnant}};
+}
+
+// An island from its JSON: every program held to `shape` and its claimed error scored again
+// by `scorer`.
+Status islandFromJson(const nlohmann::json& ji, const ProgramShape& shape, Scorer& scorer,
+                      const std::string& at, Search::Island& isl) {
+  for (const auto& j : ji.at("population")) {
+    auto p = checkpointProgram(j, shape);
+    if (!p) return Status::error("checkpoint: population: " + p.error());
+    auto o = objectivesFromJson(j.at("obj"));
+    if (!o) return Status::error("checkpoint: population: " + o.error());
+    const std::string who = at + " member " + std::to_string(isl.pop.size());
+    if (auto c = checkClaimedError(scorer, *p, *o, who); !c) return c;
+    isl.pop.push_back({*p, *o, j.value("refined", false)});
+  }
+  isl.rank = ji.at("rank").get<std::vector<int>>();
+  for (int r : isl.rank)
+    if (r < 0) return Status::error("checkpoint: " + at + ": a rank below 0");
+  for (const auto& c : ji.at("crowd")) isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
+  if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
+    return Status::error("checkpoint: island ranks do not match its population");
+  isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
+  auto stagnant = counter<int>(ji, "stagnant");
+  if (!stagnant) return Status::error(stagnant.error() + " (" + at + ")");
+  isl.stagnant = *stagnant;
+  return Status::ok();
+}
+
 nlohmann::json checkpointToJson(const Search& s) {
   nlohmann::json islands = nlohmann::json::array();
-  for (const auto& isl : s.islands_) {
-    nlohmann::json pop = nlohmann::json::array();
-    for (const auto& ind : isl.pop)
-      pop.push_back({{"program", toJson(ind.program)},
-                     {"obj", objectivesToJson(ind.obj)},
-                     {"refined", ind.refined}});
-    // Ranks and crowding come from the last survival's pool (see Search::survive()), which a
-    // resumed run cannot recompute: they are stored. JSON has no infinity: boundary points are
-    // null.
-    nlohmann::json crowd = nlohmann::json::array();
-    for (double c : isl.crowd) crowd.push_back(std::isfinite(c) ? nlohmann::json(c) : nullptr);
-    islands.push_back({{"population", pop},
-                       {"rank", isl.rank},
-                       {"crowd", crowd},
-                       {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
-                       {"stagnant", isl.stagnant}});
-  }
+  for (const auto& isl : s.islands_) islands.push_back(islandToJson(isl));
   nlohmann::json arch = nlohmann::json::array();
   for (const auto& m : s.archive_.members())
     arch.push_back(
         {{"program", toJson(m.program)}, {"obj", objectivesToJson(m.obj)}, {"refined", m.refined}});
+  // Residual stages: the base each corrects (its residual table is computed again from it)
+  // and its island, like the others.
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& st : s.stages_) {
+    nlohmann::json j = islandToJson(st->isl);
+    j["base"] = st->base.code.empty() ? nlohmann::json(nullptr) : toJson(st->base);
+    j["mode"] = std::string(toString(st->mode));
+    j["base_error"] = st->base_error;
+    j["since"] = st->since;
+    j["picks"] = st->picks;
+    j["composites"] = st->composites;
+    stages.push_back(std::move(j));
+  }
   const int total = s.island_total_ > 0 ? s.island_total_ : static_cast<int>(s.islands_.size());
   return {{"format", "lgp-checkpoint/2"},
           {"config_digest", configDigest(s.cfg_, s.table_)},
@@ -129,7 +170,8 @@ nlohmann::json checkpointToJson(const Search& s) {
           {"island_first", s.island_first_},
           {"island_total", total},
           {"islands", islands},
-          {"archive", arch}};
+          {"archive", arch},
+          {"stages", stages}};
 }
 
 Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_counters) {
@@ -170,29 +212,11 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
     Scorer& scorer = s.scorer(0);
     std::vector<Search::Island> islands;
     for (int k = take_first; k < take_first + take_count; ++k) {
-      const auto& ji = jislands.at(static_cast<size_t>(k));
-      const std::string at = "island " + std::to_string(k);
       Search::Island isl;
-      for (const auto& j : ji.at("population")) {
-        auto p = checkpointProgram(j, s.shape_);
-        if (!p) return Status::error("checkpoint: population: " + p.error());
-        auto o = objectivesFromJson(j.at("obj"));
-        if (!o) return Status::error("checkpoint: population: " + o.error());
-        const std::string who = at + " member " + std::to_string(isl.pop.size());
-        if (auto c = checkClaimedError(scorer, *p, *o, who); !c) return c;
-        isl.pop.push_back({*p, *o, j.value("refined", false)});
-      }
-      isl.rank = ji.at("rank").get<std::vector<int>>();
-      for (int r : isl.rank)
-        if (r < 0) return Status::error("checkpoint: " + at + ": a rank below 0");
-      for (const auto& c : ji.at("crowd"))
-        isl.crowd.push_back(c.is_number() ? c.get<double>() : kInf);
-      if (isl.rank.size() != isl.pop.size() || isl.crowd.size() != isl.pop.size())
-        return Status::error("checkpoint: island ranks do not match its population");
-      isl.best = ji.at("best").is_number() ? ji.at("best").get<double>() : kInf;
-      auto stagnant = counter<int>(ji, "stagnant");
-      if (!stagnant) return Status::error(stagnant.error() + " (" + at + ")");
-      isl.stagnant = *stagnant;
+      if (auto c = islandFromJson(jislands.at(static_cast<size_t>(k)), s.shape_, scorer,
+                                  "island " + std::to_string(k), isl);
+          !c)
+        return c;
       islands.push_back(std::move(isl));
     }
     Archive arch(s.cfg_.search.archive);
@@ -234,7 +258,62 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
       return Status::error("checkpoint: the archive holds " + std::to_string(members.size()) +
                            " members, more than search.archive.max_size (" +
                            std::to_string(s.cfg_.search.archive.max_size) + ")");
+    // The stages of this rank (a combined checkpoint keeps each rank's in its part).
+    std::vector<std::unique_ptr<Search::Stage>> stages;
+    if (st.contains("stages")) {
+      const nlohmann::json* js = &st.at("stages");
+      if (s.range_set_ && st.contains("parts"))
+        for (const auto& part : st.at("parts"))
+          if (part.value("island_first", -1) == s.island_first_ && part.contains("stages"))
+            js = &part.at("stages");
+      for (size_t k = 0; k < js->size(); ++k) {
+        const auto& j = js->at(k);
+        const std::string at = "stage " + std::to_string(k);
+        auto stage = std::make_unique<Search::Stage>();
+        if (!j.at("base").is_null()) {
+          ProgramShape loose = s.shape_;
+          loose.num_outputs = static_cast<int>(s.table_.numOutputs());
+          loose.genes = 1;
+          loose.max_length = 255;
+          // A final program keeps only the slots it reads: its own count, within the bound.
+          const auto& bc = j.at("base");
+          const size_t slots =
+              bc.is_object() && bc.contains("constants") && bc.at("constants").is_array()
+                  ? bc.at("constants").size()
+                  : 0;
+          loose.num_constants = static_cast<int>(std::min<size_t>(slots, 255));
+          loose.output_mode = OutputMode::Designated;
+          auto base = checkpointProgram(nlohmann::json{{"program", j.at("base")}}, loose);
+          if (!base) return Status::error("checkpoint: " + at + " base: " + base.error());
+          stage->base = std::move(*base);
+          const std::string mode = j.at("mode").get<std::string>();
+          if (mode != "add" && mode != "mul")
+            return Status::error("checkpoint: " + at + ": mode must be add or mul");
+          stage->mode = mode == "mul" ? StageMode::Mul : StageMode::Add;
+          stage->base_error = j.at("base_error").get<double>();
+          s.bindStage(*stage);
+          if (auto c = islandFromJson(j, stage->shape, s.stageScorer(*stage, 0), at, stage->isl);
+              !c)
+            return c;
+        }
+        auto since = counter<int>(j, "since");
+        auto picks = counter<int>(j, "picks");
+        auto composites = counter<uint64_t>(j, "composites");
+        if (!since || !picks || !composites)
+          return Status::error("checkpoint: " + at +
+                               ": since, picks and composites must be counts");
+        stage->since = *since;
+        stage->picks = *picks;
+        stage->composites = *composites;
+        stages.push_back(std::move(stage));
+      }
+      if (!stages.empty() && static_cast<int>(stages.size()) != s.cfg_.search.stages.islands)
+        return Status::error("checkpoint: holds " + std::to_string(stages.size()) +
+                             " stages, search.stages.islands is " +
+                             std::to_string(s.cfg_.search.stages.islands));
+    }
     s.islands_ = std::move(islands);
+    s.stages_ = std::move(stages);
     if (!s.range_set_) {
       s.island_first_ = 0;
       s.island_total_ = held;

@@ -87,6 +87,13 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
   auto config_dir = cfg.base_dir;
   if (!config_dir.empty()) config_dir = std::filesystem::absolute(config_dir, ec);
   const auto p = s.progress();
+  nlohmann::json progress = {{"generation", p.generation}, {"evaluations", p.evaluations},
+                             {"elapsed_s", p.elapsed_s},   {"stop_reason", p.stop_reason},
+                             {"threads", s.threads()},     {"islands", p.islands},
+                             {"migrants", p.migrants},     {"restarts", p.restarts},
+                             {"ranks", p.ranks},           {"remote_migrants", p.remote_migrants}};
+  if (!s.structuredInfo().is_null()) progress["structured"] = s.structuredInfo();
+  if (auto st = s.stagesInfo(); !st.is_null()) progress["stages"] = std::move(st);
   return {{"format", "lgp-front/1"},
           {"config", toJson(cfg)},
           {"config_dir", ec ? cfg.base_dir.string() : config_dir.lexically_normal().string()},
@@ -97,17 +104,7 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
             {"domain", domain},
             {"weighted", !t.weights.empty()},
             {"meta", t.meta}}},
-          {"progress",
-           {{"generation", p.generation},
-            {"evaluations", p.evaluations},
-            {"elapsed_s", p.elapsed_s},
-            {"stop_reason", p.stop_reason},
-            {"threads", s.threads()},
-            {"islands", p.islands},
-            {"migrants", p.migrants},
-            {"restarts", p.restarts},
-            {"ranks", p.ranks},
-            {"remote_migrants", p.remote_migrants}}},
+          {"progress", progress},
           // With measured cost in the search, members' "cost" is measured instructions.
           {"cost_model",
            cfg.objectives.measured_cost.in_search && !cfg.objectives.measured_cost.families.empty()

@@ -14,6 +14,7 @@
 #include "lgp/search/differential_evolution.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/nelder_mead.hpp"
+#include "lgp/search/structured.hpp"
 
 namespace lgp {
 
@@ -340,6 +341,10 @@ void Search::rankIsland(Island& isl) {
 }
 
 void Search::survive(int global, Island& isl, std::vector<Individual>& pool, int keep) const {
+  surviveStrata(islandCostStrata(global), isl, pool, keep);
+}
+
+void Search::surviveStrata(int strata, Island& isl, std::vector<Individual>& pool, int keep) const {
   isl.pop = std::move(pool);
   rankIsland(isl);
   const int n = static_cast<int>(isl.pop.size());
@@ -353,7 +358,7 @@ void Search::survive(int global, Island& isl, std::vector<Individual>& pool, int
   std::vector<Objectives> objs;
   objs.reserve(n);
   for (const auto& ind : isl.pop) objs.push_back(ind.obj);
-  const std::vector<int> chosen = stratifiedSurvivors(objs, order, keep, islandCostStrata(global));
+  const std::vector<int> chosen = stratifiedSurvivors(objs, order, keep, strata);
   // Survivors keep the rank and crowding of the pool's ranking, as in NSGA-II (Deb et al.
   // 2002): tournaments compare them directly, so no second sort is needed.
   std::vector<Individual> next;
@@ -373,9 +378,13 @@ void Search::survive(int global, Island& isl, std::vector<Individual>& pool, int
 }
 
 int Search::tournament(int global, const Island& isl, Rng& rng) const {
+  return tournamentBias(islandErrorBias(global), isl, rng);
+}
+
+int Search::tournamentBias(double error_bias, const Island& isl, Rng& rng) const {
   const auto& pop = isl.pop;
   const int n = static_cast<int>(pop.size());
-  const bool by_error = rng.chance(islandErrorBias(global));
+  const bool by_error = rng.chance(error_bias);
   int best = static_cast<int>(rng.below(n));
   for (int t = 1; t < cfg_.search.tournament_size; ++t) {
     const int c = static_cast<int>(rng.below(n));
@@ -535,6 +544,7 @@ void Search::initialize() {
   InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
                   cfg_.program.const_min, cfg_.program.const_max};
   std::vector<Individual> inds(n);
+  const std::vector<Individual> structured = structuredStart();
   int first = 0;
   for (int k = 0; k < count; ++k) {
     const ProgramShape& view = islandShape(island_first_ + k);
@@ -552,6 +562,16 @@ void Search::initialize() {
       Program p = seed;
       if (fitToIsland(p, shape_, view)) inds[first + j++].program = std::move(p);
     }
+    // The structured fits join the islands that search the run's whole shape (the cheap
+    // islands keep their random start), after the seeds, up to structured.share of each.
+    if (view.max_length == shape_.max_length && view.num_constants == shape_.num_constants) {
+      const int cap = j + static_cast<int>(cfg_.search.structured.share * size);
+      for (const Individual& ind : structured) {
+        if (j >= cap || j >= size) break;
+        Program p = ind.program;
+        if (fitToIsland(p, shape_, view)) inds[first + j++].program = std::move(p);
+      }
+    }
     first += size;
   }
   evaluateAll(inds, {}, 0, base);
@@ -568,6 +588,55 @@ void Search::initialize() {
   }
   generation_ = 0;
   initialized_ = true;
+}
+
+std::vector<Search::Individual> Search::structuredStart() {
+  if (cfg_.search.structured.max_degree <= 0) return {};
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<Individual> inds;
+  std::vector<std::string> families;
+  for (auto& f : structuredFits(cfg_, table_, shape_, domain_)) {
+    auto p = fitToShape(f.program, shape_);
+    if (!p) continue;
+    inds.push_back({std::move(*p), {}, false});
+    families.push_back(f.family);
+  }
+  const size_t built = inds.size();
+  // Streams of their own (index base 2^40): the random start's offspring indices stay as
+  // they were.
+  evaluateAll(inds, {}, 0, uint64_t{1} << 40);
+  size_t finite = 0;
+  std::vector<Individual> kept;
+  std::vector<Objectives> objs;
+  for (const auto& ind : inds)
+    if (ind.obj.finite()) {
+      ++finite;
+      archiveInsert(ind.program, ind.obj, false);
+      kept.push_back(ind);
+      objs.push_back(ind.obj);
+    }
+  // The fits no other fit dominates, cheapest first: the islands' share.
+  const auto ranks = nondominatedRanks(objs);
+  std::vector<Individual> first;
+  for (size_t i = 0; i < kept.size(); ++i)
+    if (ranks[i] == 0) first.push_back(kept[i]);
+  std::stable_sort(first.begin(), first.end(), [](const Individual& a, const Individual& b) {
+    return a.obj.cost < b.obj.cost;
+  });
+  size_t archived = 0;
+  for (const auto& m : archive_.members())
+    for (const auto& ind : kept)
+      if (m.program == ind.program) {
+        ++archived;
+        break;
+      }
+  structured_info_ = {
+      {"fits", built},
+      {"finite", finite},
+      {"archived", archived},
+      {"first_front", first.size()},
+      {"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()}};
+  return first;
 }
 
 void Search::step(bool check_budget) {
@@ -680,6 +749,7 @@ void Search::step(bool check_budget) {
   if (ic.migration_interval > 0 && g % ic.migration_interval == 0) migrate(g);
   if (cfg_.search.refine.archive_period > 0 && g % cfg_.search.refine.archive_period == 0)
     refineArchive();
+  stepStages(g);
 }
 
 void Search::refineArchive() {

@@ -185,6 +185,13 @@ class Search {
     snap_twins_ = on;
     snap_ = o;
   }
+  // What the structured accurate end did at the start (search/structured.hpp): fits built,
+  // finite, taken by the archive, placed in islands, and seconds; null when it did not run
+  // (off, or a resumed search).
+  const nlohmann::json& structuredInfo() const { return structured_info_; }
+  // Per residual stage (search.stages): its base (formula of the member it corrects), mode,
+  // picks so far and composites the archive took; null when the run has none.
+  nlohmann::json stagesInfo() const;
   // The archive as it stands (unsorted, programs as searched).
   const std::vector<ArchiveMember>& archiveMembers() const { return archive_.members(); }
 
@@ -212,6 +219,10 @@ class Search {
   // The checkpoint JSON (io/checkpoint.hpp) reads and restores the private state.
   friend nlohmann::json checkpointToJson(const Search& s);
   friend Status restoreFromCheckpoint(Search& s, const nlohmann::json& state, bool take_counters);
+  struct Island;
+  friend nlohmann::json islandToJson(const Island& isl);
+  friend Status islandFromJson(const nlohmann::json& ji, const ProgramShape& shape, Scorer& scorer,
+                               const std::string& at, Island& isl);
 
   struct Individual {
     Program program;
@@ -226,6 +237,43 @@ class Search {
     double best = std::numeric_limits<double>::infinity();  // lowest error seen here
     int stagnant = 0;  // generations since `best` last improved
   };
+  // The structured fits of the table, in the run's shape, scored and offered to the archive;
+  // returned in order of cost, the ones no other fit dominates.
+  std::vector<Individual> structuredStart();
+  // A residual stage (search/stage.hpp): the base it corrects, its residual table and the
+  // island that searches the correction (programs of `shape`: the run's inputs, then the
+  // base's outputs).
+  struct Stage {
+    Program base;  // the base's final program; empty until the first pick
+    StageMode mode = StageMode::Add;
+    double base_error = 0;
+    Table table;
+    std::unique_ptr<Dataset> ds;
+    ErrorConfig err;
+    CostModel cost;
+    DiscontinuityModel disc;
+    ProgramShape shape;
+    double error_scale = 1;  // stage error -> the composite's (mul: the weights' sums)
+    std::vector<std::unique_ptr<Scorer>> scorers;  // per thread
+    std::vector<std::unique_ptr<ConstantFitter>> fitters;
+    Island isl;
+    int since = 0;            // generations since the pick
+    int picks = 0;            // picks so far
+    uint64_t composites = 0;  // composites the archive took
+  };
+  void stepStages(int generation);
+  // A new base for stage `k` from the archive (search.stages.bases, modes); false if no member
+  // leaves room for a correction.
+  bool pickBase(int k, Stage& st);
+  // The stage's residual table, scorers and shape for its base and mode.
+  void bindStage(Stage& st);
+  Scorer& stageScorer(Stage& st, int thread);
+  Objectives stageScore(Stage& st, int thread, const Program& p);
+  // Scores (and, where picked, fits the constants of) stage programs; returns evaluations.
+  uint64_t evaluateStage(Stage& st, std::vector<Individual>& inds,
+                         const std::vector<uint8_t>& refine);
+  // Offers the composites of `inds` (scored stage programs) to the archive.
+  void offerComposites(Stage& st, const std::vector<Individual>& inds);
   // Individual i draws its refinement stream from global index index_base + i.
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
                    uint64_t stream, uint64_t index_base = 0);
@@ -240,8 +288,10 @@ class Search {
   // search.cost_strata the best of each cost slice first).
   // `global`: the island's global index (its profile's cost_strata).
   void survive(int global, Island& isl, std::vector<Individual>& pool, int keep) const;
+  void surviveStrata(int strata, Island& isl, std::vector<Individual>& pool, int keep) const;
   static void rankIsland(Island& isl);
   int tournament(int global, const Island& isl, Rng& rng) const;
+  int tournamentBias(double error_bias, const Island& isl, Rng& rng) const;
   int islandSize(int k) const;  // population share of global island k
   // What global island k's variation may build (search.islands.profiles), and its weight
   // rate, error bias and cost strata.
@@ -326,6 +376,8 @@ class Search {
   bool lm_fits_the_error_ = false;
   uint64_t session_evals_ = 0;  // evaluations since construction/restore (for evals/s)
   std::vector<Program> seeds_;
+  nlohmann::json structured_info_;
+  std::vector<std::unique_ptr<Stage>> stages_;
   std::string adopted_stop_;      // set by adopt()
   std::vector<Interval> domain_;  // the table's (tableDomain)
   bool snap_twins_ = true;
