@@ -3,6 +3,7 @@
 // the archive at the start of a search.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 
 #include "lgp/eval/interpreter.hpp"
@@ -103,6 +104,41 @@ TEST(Structured, TheSqrtFeaturesAreOneOpcodeEach) {
   int roots = 0;
   for (const Instr& in : f->program.code) roots += in.op == Op::Sqrt;
   EXPECT_EQ(roots, 1);
+}
+
+TEST(Structured, ManyInputsStayWithinTheConstantBudgetAndFinishAtOnce) {
+  // 30 inputs: degree 8 would be C(38, 8) = 4.9e7 monomials and the pole-check grid 6^30
+  // points; neither may be listed. Degree 1 (31 coefficients) fits 48 slots, degree 2 does not.
+  Table t;
+  Rng rng(3);
+  for (int i = 0; i < 30; ++i) t.input_names.push_back("x" + std::to_string(i));
+  t.output_names = {"y"};
+  t.inputs.assign(30, {});
+  t.outputs.assign(1, {});
+  for (int r = 0; r < 200; ++r) {
+    double y = 0.5;
+    for (int i = 0; i < 30; ++i) {
+      const double x = rng.uniform();
+      t.inputs[i].push_back(x);
+      y += 0.01 * (i + 1) * x;
+    }
+    t.outputs[0].push_back(y);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto fits = fitsOf(structuredOnly(8), t);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+  // poly 1 and exp2 poly 1 (y > 0), nothing of degree 2 or rational.
+  ASSERT_EQ(fits.size(), 2u);
+  const StructuredFit* p1 = nullptr;
+  for (const auto& f : fits) {
+    EXPECT_TRUE(f.family.rfind("poly 1 (x0, x1", 0) == 0 ||
+                f.family.rfind("exp2 poly 1 (x0", 0) == 0)
+        << f.family;
+    if (f.family.rfind("poly 1", 0) == 0) p1 = &f;
+  }
+  ASSERT_NE(p1, nullptr);
+  EXPECT_EQ(p1->coefficients, 31);
+  EXPECT_LT(maxError(p1->program, t), 1e-5);
 }
 
 TEST(Structured, TheFitsReachTheArchiveAtTheStart) {

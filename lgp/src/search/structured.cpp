@@ -8,6 +8,7 @@
 #include <functional>
 #include <map>
 
+#include "lgp/core/rng.hpp"
 #include "lgp/eval/objectives.hpp"
 
 namespace lgp {
@@ -33,6 +34,14 @@ std::vector<Exponents> monomials(int n, int d) {
   };
   rec(0, d);
   return out;
+}
+
+// How many monomials `monomials(n, d)` lists, C(n + d, d), without listing them (in double:
+// 30 inputs at degree 8 are 4.9e7, far past any constant budget).
+double monomialCount(int n, int d) {
+  double c = 1;
+  for (int k = 1; k <= d; ++k) c = c * (n + k) / k;
+  return c;
 }
 
 // Builds programs opcode by opcode; operands are inputs, constant slots or earlier opcodes.
@@ -132,6 +141,16 @@ class Fitter {
     // The domain box where a denominator must keep its sign: a grid over the table's ranges.
     const int n = static_cast<int>(t.numInputs());
     const int per_axis = n == 1 ? 512 : n == 2 ? 64 : n == 3 ? 16 : 6;
+    if (std::pow(per_axis, n) > kMaxBoxPoints) {
+      // Many inputs: a grid would be astronomically large; points drawn over the box.
+      Rng rng(0x5eed5eedULL);
+      for (int k = 0; k < kMaxBoxPoints; ++k) {
+        std::vector<double> pt(n);
+        for (int a = 0; a < n; ++a) pt[a] = rng.uniform(domain[a].lo, domain[a].hi);
+        box_.push_back(pt);
+      }
+      return;
+    }
     std::vector<int> idx(n, 0);
     for (bool more = n > 0; more;) {
       std::vector<double> pt(n);
@@ -150,12 +169,18 @@ class Fitter {
     }
   }
 
+  static constexpr int kMaxBoxPoints = 8192;
+
   std::vector<StructuredFit> run() {
     std::vector<StructuredFit> out;
     const auto& sc = cfg_.search.structured;
     if (sc.max_degree <= 0 || t_.numInputs() == 0 || t_.numOutputs() == 0) return out;
     for (const auto& f : featureSets()) {
       for (int d = 1; d <= sc.max_degree; ++d) {
+        // Past the constant budget at degree d, every larger degree is too.
+        if (monomialCount(static_cast<int>(t_.numInputs()), d) * t_.numOutputs() >
+            shape_.num_constants)
+          break;
         fitPoly(f, d, false, out);
         if (sc.exp2 && shape_.ops.contains(Op::Exp2)) fitPoly(f, d, true, out);
         if (sc.rational && shape_.ops.contains(Op::Div))
@@ -242,9 +267,9 @@ class Fitter {
   // Where the budget allows one, a program; its outputs follow the table's.
   void fitPoly(const Features& f, int d, bool in_exp2, std::vector<StructuredFit>& out) {
     const int n = static_cast<int>(t_.numInputs());
-    const auto ms = monomials(n, d);
     const int k = static_cast<int>(t_.numOutputs());
-    if (static_cast<int>(ms.size()) * k > shape_.num_constants) return;
+    if (monomialCount(n, d) * k > shape_.num_constants) return;
+    const auto ms = monomials(n, d);
     const Eigen::MatrixXd a = design(f, ms, fitPoints());
     Builder b;
     const auto feat = featureOperands(b, f);
@@ -272,6 +297,9 @@ class Fitter {
 
   void fitRational(const Features& f, int d, int e, std::vector<StructuredFit>& out) {
     const int n = static_cast<int>(t_.numInputs());
+    if ((monomialCount(n, d) + monomialCount(n, e)) * static_cast<double>(t_.numOutputs()) >
+        shape_.num_constants)
+      return;
     const auto mp = monomials(n, d);
     auto mq = monomials(n, e);
     mq.erase(mq.begin());  // the constant term: 1
