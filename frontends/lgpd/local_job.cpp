@@ -215,10 +215,13 @@ Status JobManager::endLocalJob(LocalRun& run) {
   // which the archive never keeps. A cancelled run may end empty.
   if (status == RunStatus::Finished && front["members"].empty())
     return Status::error(lgp::cli::emptyFrontMessage(run.search));
-  auto s = store_.finishRun(id, status, &front, countersOf(p, run.best), "");
+  // The run's front size is its final front's (measured costs can drop archive members).
+  RunCounters counters = countersOf(p, run.best);
+  counters.front_size = static_cast<int64_t>(front["members"].size());
+  auto s = store_.finishRun(id, status, &front, counters, "");
   if (!s) return Status::error("cannot store the run's final front: " + s.message());
   spdlog::info("run {} {}: generation {}, {} evaluations, front of {}", id, toString(status),
-               p.generation, p.evaluations, p.front_size);
+               p.generation, p.evaluations, counters.front_size);
   return Status::ok();
 }
 
