@@ -135,15 +135,21 @@ double Search::elapsed() const {
 }
 
 Objectives Search::score(Scorer& s, const Program& p) const {
+  return scoreWith(s, p, cost_, disc_, err_cfg_.linear_scaling, genes(), transform_cost_);
+}
+
+Objectives Search::scoreWith(Scorer& s, const Program& p, const CostModel& cost,
+                             const DiscontinuityModel& disc, bool linear_scaling, int genes,
+                             double extra_cost) {
   Objectives o;
   o.error = s.error(p);
   if (!std::isfinite(o.error)) o.error = kInf;
   const auto& effective = s.bound().effective;  // bound by error(p): computed once
   // The program as exported: with linear scaling, its mad and constants are costed too.
-  o.cost = (err_cfg_.linear_scaling ? cost_.programCost(applyLinearScaling(p, s.scales(), genes()))
-                                    : cost_.programCost(p)) +
-           transform_cost_;
-  o.discontinuity = disc_.programDiscontinuity(p, effective);
+  o.cost = (linear_scaling ? cost.programCost(applyLinearScaling(p, s.scales(), genes))
+                           : cost.programCost(p)) +
+           extra_cost;
+  o.discontinuity = disc.programDiscontinuity(p, effective);
   return o;
 }
 

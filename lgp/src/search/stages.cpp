@@ -50,15 +50,8 @@ Scorer& Search::stageScorer(Stage& st, int thread) {
 }
 
 Objectives Search::stageScore(Stage& st, int thread, const Program& p) {
-  Scorer& s = stageScorer(st, thread);
-  Objectives o;
-  o.error = s.error(p);
-  if (!std::isfinite(o.error)) o.error = kInf;
-  const auto& effective = s.bound().effective;
-  o.cost = st.err.linear_scaling ? st.cost.programCost(applyLinearScaling(p, s.scales(), 1))
-                                 : st.cost.programCost(p);
-  o.discontinuity = st.disc.programDiscontinuity(p, effective);
-  return o;
+  // One gene and no target transform: the correction's own a*g + b.
+  return scoreWith(stageScorer(st, thread), p, st.cost, st.disc, st.err.linear_scaling, 1, 0.0);
 }
 
 void Search::bindStage(Stage& st) {

@@ -278,6 +278,11 @@ class Search {
   void evaluateAll(std::vector<Individual>& inds, const std::vector<uint8_t>& refine,
                    uint64_t stream, uint64_t index_base = 0);
   Objectives score(Scorer& s, const Program& p) const;
+  // The objectives of `p` under a scorer and the cost and discontinuity models of its table
+  // (the run's, or a stage's): with linear scaling the exported mad is costed too.
+  static Objectives scoreWith(Scorer& s, const Program& p, const CostModel& cost,
+                              const DiscontinuityModel& disc, bool linear_scaling, int genes,
+                              double extra_cost);
   // Fits the constants of one individual with thread `thread`'s scorer and fitter.
   // `key` (offspring only, with the cache on): the program's cache key, under which its LM fit
   // is recorded; `known`: what the cache held under it when the offspring was scored, whose LM
