@@ -15,6 +15,30 @@ namespace lgp::emit {
 
 namespace {
 
+// The function names the op table's language columns spell an operator with, where the
+// spelling is a plain call of the operands in order (GLSL's mix and inversesqrt, C++'s
+// std::exp2): code written in any language reads back.
+const std::map<std::string, Op>& spelledCalls() {
+  static const std::map<std::string, Op> calls = [] {
+    std::map<std::string, Op> m;
+    for (const auto& info : allOps())
+      for (std::string_view t : {info.infix, info.hlsl, info.glsl, info.cpp}) {
+        std::string call = "(";
+        for (int k = 0; k < info.arity; ++k) call += (k ? ", {" : "{") + std::to_string(k) + "}";
+        call += ")";
+        if (t.size() <= call.size() || t.substr(t.size() - call.size()) != call) continue;
+        std::string fn(t.substr(0, t.size() - call.size()));
+        if (fn.rfind("std::", 0) == 0) fn = fn.substr(5);
+        const bool ident = !fn.empty() && std::all_of(fn.begin(), fn.end(), [](char c) {
+          return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+        });
+        if (ident && fn != info.name) m.emplace(fn, info.op);
+      }
+    return m;
+  }();
+  return calls;
+}
+
 enum class Tok { Num, Name, Punct, Newline, End };
 
 struct Token {
@@ -508,13 +532,15 @@ class Parser {
     const std::string given = name;
     if (name.rfind("std::", 0) == 0) name = name.substr(5);
     if (name.rfind("lgp_", 0) == 0) name = name.substr(4);
+    // C's float functions and other names no language column of the op table spells.
     static const std::map<std::string, std::string> kAlias = {
-        {"fabs", "abs"},   {"fabsf", "abs"},         {"fmin", "min"},   {"fminf", "min"},
-        {"fmax", "max"},   {"fmaxf", "max"},         {"fma", "mad"},    {"fmaf", "mad"},
-        {"mix", "lerp"},   {"inversesqrt", "rsqrt"}, {"sqr", "square"}, {"exp2f", "exp2"},
-        {"log2f", "log2"}, {"expf", "exp"},          {"logf", "log"},   {"powf", "pow"},
-        {"sqrtf", "sqrt"}, {"sinf", "sin"},          {"cosf", "cos"}};
+        {"fabs", "abs"},   {"fabsf", "abs"}, {"fmin", "min"}, {"fminf", "min"},  {"fmax", "max"},
+        {"fmaxf", "max"},  {"fma", "mad"},   {"fmaf", "mad"}, {"sqr", "square"}, {"exp2f", "exp2"},
+        {"log2f", "log2"}, {"expf", "exp"},  {"logf", "log"}, {"powf", "pow"},   {"sqrtf", "sqrt"},
+        {"sinf", "sin"},   {"cosf", "cos"}};
     if (auto it = kAlias.find(name); it != kAlias.end()) name = it->second;
+    if (auto it = spelledCalls().find(name); it != spelledCalls().end())
+      name = std::string(opName(it->second));
     auto arityErr = [&](size_t want) {
       return fail("'" + given + "' takes " + std::to_string(want) + " argument" +
                   (want == 1 ? "" : "s") + ", got " + std::to_string(a.size()));

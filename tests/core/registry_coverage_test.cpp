@@ -8,8 +8,10 @@
 // (eval/semantics.hpp) agree with central differences; the binary16 semantics stay within half
 // rounding of the float32 ones; the double and float32 semantics agree; the table's facts are
 // consistent (a piecewise operator has a branch the interval analysis can see, a commutative
-// one commutes). Metrics (allMetrics): every name reads back, and the float32 scorer, the double
-// reference and the definition (metricsOf) agree on every metric, with row weights.
+// one commutes, the sign columns hold on sampled operands, the guard column agrees with the
+// proof of an unreachable guard). Metrics (allMetrics): every name reads back, and the float32
+// scorer, the double reference and the definition (metricsOf) agree on every metric, with row
+// weights.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -63,9 +65,9 @@ TEST(RegistryCoverage, DoubleAndFloatSemanticsAgree) {
     for (int s = 0; s < 50; ++s) {
       const auto x = genericPoint(rng);
       const double d = applyD(info.op, x);
-      const float f = sem::applyDynamic<float>(info.op, static_cast<float>(x[0]),
-                                               static_cast<float>(x[1]), static_cast<float>(x[2]),
-                                               static_cast<float>(x[3]));
+      const float f =
+          sem::applyDynamic<float>(info.op, static_cast<float>(x[0]), static_cast<float>(x[1]),
+                                   static_cast<float>(x[2]), static_cast<float>(x[3]));
       EXPECT_NEAR(f, d, 1e-5 * std::max(1.0, std::fabs(d))) << info.name;
     }
 }
@@ -85,16 +87,16 @@ TEST(RegistryCoverage, IntervalRulesHoldEverySampledValue) {
         x[k] = lo + (hi - lo) * u(rng);
       }
       const Interval r = opInterval(info.op, iv);
-      const float v = sem::applyDynamic<float>(info.op, static_cast<float>(x[0]),
-                                               static_cast<float>(x[1]), static_cast<float>(x[2]),
-                                               static_cast<float>(x[3]));
+      const float v =
+          sem::applyDynamic<float>(info.op, static_cast<float>(x[0]), static_cast<float>(x[1]),
+                                   static_cast<float>(x[2]), static_cast<float>(x[3]));
       if (std::isnan(v)) {
         EXPECT_TRUE(r.nan) << info.name << " gives NaN at a point its interval calls NaN-free";
         continue;
       }
       EXPECT_TRUE(v >= r.lo && v <= r.hi)
-          << info.name << "(" << x[0] << ", " << x[1] << ", " << x[2] << ", " << x[3]
-          << ") = " << v << " outside [" << r.lo << ", " << r.hi << "]";
+          << info.name << "(" << x[0] << ", " << x[1] << ", " << x[2] << ", " << x[3] << ") = " << v
+          << " outside [" << r.lo << ", " << r.hi << "]";
     }
 }
 
@@ -115,8 +117,8 @@ TEST(RegistryCoverage, PartialDerivativesMatchCentralDifferences) {
         const double fd = (applyD(info.op, xp) - applyD(info.op, xm)) / (2 * h);
         const double an = p.on[k] ? p.p[k] / p.den : 0.0;
         EXPECT_NEAR(an, fd, 1e-5 * std::max(1.0, std::fabs(fd)))
-            << info.name << ": d/d operand " << k << " at (" << x[0] << ", " << x[1] << ", "
-            << x[2] << ", " << x[3] << ")";
+            << info.name << ": d/d operand " << k << " at (" << x[0] << ", " << x[1] << ", " << x[2]
+            << ", " << x[3] << ")";
       }
     }
 }
@@ -162,6 +164,90 @@ TEST(RegistryCoverage, TableFactsAreConsistent) {
   }
 }
 
+// The sign columns (ops.hpp OpNonNeg, OpZeroSign) that the simplifier's sign-of-zero rewrites
+// trust hold on sampled operands: +0 and -0 at a blocking operand give the same bits, at a
+// passing one the same value; a nonnegative result never has its sign bit set.
+TEST(RegistryCoverage, SignColumnsHoldOnSampledOperands) {
+  std::mt19937_64 rng(6);
+  const float pool[] = {0.0f,  -0.0f, 1.0f,   -1.0f, 0.5f,   -2.5f,    3e-20f,   -3e-20f,
+                        1e-3f, -7.0f, 200.0f, 1e30f, -1e30f, INFINITY, -INFINITY};
+  auto draw = [&](bool nonneg) {
+    float v = pool[rng() % std::size(pool)];
+    return nonneg ? std::fabs(v) : v;
+  };
+  auto apply = [](Op op, const std::array<float, kMaxArity>& x) {
+    return sem::applyDynamic<float>(op, x[0], x[1], x[2], x[3]);
+  };
+  auto same = [](float a, float b, bool bits) {
+    if (std::isnan(a) || std::isnan(b)) return std::isnan(a) && std::isnan(b);
+    return bits ? std::signbit(a) == std::signbit(b) && a == b : a == b;
+  };
+  for (const auto& info : allOps())
+    for (int s = 0; s < 400; ++s) {
+      for (int k = 0; k < info.arity; ++k) {
+        std::array<float, kMaxArity> x{};
+        for (float& v : x) v = draw(false);
+        auto pos = x, neg = x;
+        pos[k] = 0.0f;
+        neg[k] = -0.0f;
+        const float vp = apply(info.op, pos), vn = apply(info.op, neg);
+        bool blocks = false, passes = false;
+        switch (info.zero_sign) {
+          case OpZeroSign::Blocks:
+            blocks = true;
+            break;
+          case OpZeroSign::Passes:
+            passes = true;
+            break;
+          case OpZeroSign::Reads:
+            break;
+          case OpZeroSign::DivisorReads:
+            passes = k == 0;
+            break;
+          case OpZeroSign::BranchesPass:
+            blocks = k < 2;
+            passes = k >= 2;
+            break;
+        }
+        if (blocks || passes) {
+          EXPECT_TRUE(same(vp, vn, blocks))
+              << info.name << ": operand " << k << " at +0 gives " << vp << ", at -0 " << vn;
+        }
+      }
+      std::array<float, kMaxArity> x{};
+      const bool all = info.nonneg == OpNonNeg::IfOperands;
+      for (int k = 0; k < kMaxArity; ++k)
+        x[k] = draw(all || (info.nonneg == OpNonNeg::IfBranches && k >= 2));
+      const float v = apply(info.op, x);
+      if (info.nonneg != OpNonNeg::Never && !std::isnan(v)) {
+        EXPECT_FALSE(std::signbit(v)) << info.name << " (" << x[0] << ", " << x[1] << ", " << x[2]
+                                      << ", " << x[3] << ") = " << v;
+      }
+    }
+}
+
+// An operator without a guard needs no proof; one with a guard is proven unguarded only where
+// its operands say so (never on the whole line with NaN).
+TEST(RegistryCoverage, GuardColumnAgreesWithTheProof) {
+  Interval whole[kMaxArity], nan[kMaxArity];
+  for (int k = 0; k < kMaxArity; ++k) {
+    whole[k] = {-1e30, 1e30, false};
+    nan[k] = {-1e30, 1e30, true};
+  }
+  for (const auto& info : allOps()) {
+    EXPECT_EQ(info.guarded, info.guard != OpGuard::None && info.guard != OpGuard::NanOrder);
+    EXPECT_EQ(info.piecewise, info.kink != OpKink::None);
+    if (info.guard == OpGuard::None) {
+      EXPECT_TRUE(provenUnguarded(info.op, nan)) << info.name;
+    } else {
+      EXPECT_FALSE(provenUnguarded(info.op, nan)) << info.name;
+      if (info.guard != OpGuard::NanOrder && info.guard != OpGuard::NanToZero) {
+        EXPECT_FALSE(provenUnguarded(info.op, whole)) << info.name;
+      }
+    }
+  }
+}
+
 TEST(RegistryCoverage, EveryMetricReadsBackAndEveryPathAgrees) {
   for (const auto& m : allMetrics()) {
     EXPECT_EQ(errorMetricFromString(m.name), m.metric) << m.name;
@@ -177,8 +263,8 @@ TEST(RegistryCoverage, EveryMetricReadsBackAndEveryPathAgrees) {
   p.outputs = {0};
   const auto ref = referenceMetrics(p, t, ErrorConfig{});
   const auto pred = evaluateReference(p, t)[0];
-  const OutputMetrics def = metricsOf(pred.data(), t.outputs[0].data(), t.weights.data(),
-                                      t.rows(), ErrorConfig{}.rel_floor);
+  const OutputMetrics def = metricsOf(pred.data(), t.outputs[0].data(), t.weights.data(), t.rows(),
+                                      ErrorConfig{}.rel_floor);
   const Dataset ds(t, 64);
   for (const auto& m : allMetrics()) {
     ErrorConfig cfg;

@@ -2,7 +2,8 @@
 
 The syntax: statements ``name = expr`` joined by ``;``; ``+ - * /``, unary ``-``, ``^`` (a
 power), ``a > b ? c : d`` (select) and calls of min, max, abs, saturate, sqrt, rsqrt, rcp,
-square, exp2, log2, exp, log, pow, sin, cos, lerp and mad. Temporaries (``t0 = ...``) are
+square, exp2, log2, exp, log, pow, sin, cos, lerp and mad, and any other call by its SymPy
+name (an operator whose formula spelling is a SymPy function needs no entry). Temporaries (``t0 = ...``) are
 substituted into the outputs.
 """
 
@@ -40,6 +41,12 @@ def _functions(sp):
         "pow": lambda a, b: sp.Pow(a, b), "sin": sp.sin, "cos": sp.cos,
         "lerp": lambda a, b, t: a + (b - a) * t, "mad": lambda a, b, c: a * b + c,
     }
+
+
+def _sympy_function(sp, name):
+    """An operator whose formula spelling is SymPy's own name (atan2, tanh, ...)."""
+    fn = getattr(sp, name, None)
+    return fn if isinstance(fn, type) and issubclass(fn, sp.Function) else None
 
 
 class _Parser:
@@ -115,7 +122,8 @@ class _Parser:
             return self.sp.Float(v) if any(c in v for c in ".eE") else self.sp.Integer(v)
         if kind == "name":
             if self.peek() == ("op", "("):
-                if v not in self.fns:
+                fn = self.fns.get(v) or _sympy_function(self.sp, v)
+                if fn is None:
                     raise ValueError(f"formula: unknown function {v!r}")
                 self.take("(")
                 args = [self.ternary()]
@@ -123,7 +131,7 @@ class _Parser:
                     self.take()
                     args.append(self.ternary())
                 self.take(")")
-                return self.fns[v](*args)
+                return fn(*args)
             if v not in self.symbols:
                 raise ValueError(f"formula: unknown name {v!r}")
             return self.symbols[v]

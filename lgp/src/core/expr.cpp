@@ -524,38 +524,18 @@ class Simplifier {
       r = true;
     } else {
       const auto& a = n.args;
-      switch (n.op) {
-        case Op::Abs:
-        case Op::Square:
-        case Op::Saturate:
-        case Op::Sqrt:
-        case Op::Rsqrt:
-        case Op::Exp2:
-        case Op::Exp:
-        case Op::Pow:
+      switch (opInfo(n.op).nonneg) {
+        case OpNonNeg::Always:
           r = !x.nan;
           break;
-        case Op::Add:
-        case Op::Mul:
-        case Op::Div:  // a / guard(b): guard(b) >= +1e-20 when b >= +0
-        case Op::Min:
-        case Op::Max:
-          r = nonNegSigned(a[0]) && nonNegSigned(a[1]);
+        case OpNonNeg::IfOperands:  // div: a / guard(b), guard(b) >= +1e-20 when b >= +0
+          r = true;
+          for (int k = 0; k < arity(n.op) && k < kMaxArity; ++k) r = r && nonNegSigned(a[k]);
           break;
-        case Op::Mad:
-          r = nonNegSigned(a[0]) && nonNegSigned(a[1]) && nonNegSigned(a[2]);
-          break;
-        case Op::Select:
+        case OpNonNeg::IfBranches:
           r = nonNegSigned(a[2]) && nonNegSigned(a[3]);
           break;
-        case Op::Sub:  // may be negative, or -0 (x - x is +0, but -0 - +0 is -0)
-        case Op::Neg:
-        case Op::Rcp:
-        case Op::Log2:
-        case Op::Log:
-        case Op::Sin:
-        case Op::Cos:
-        case Op::Lerp:
+        case OpNonNeg::Never:  // may be negative, or -0 (x - x is +0, but -0 - +0 is -0)
           break;
       }
     }
@@ -686,17 +666,8 @@ class Simplifier {
         if (dom && x.hi <= y.lo) return a[3];  // NaN -> d as well
         break;
       }
-      case Op::Rcp:  // no rewrite of their own (constant operands are folded before)
-      case Op::Sqrt:
-      case Op::Rsqrt:
-      case Op::Exp2:
-      case Op::Log2:
-      case Op::Exp:
-      case Op::Log:
-      case Op::Sin:
-      case Op::Cos:
-      case Op::Lerp:
-        break;
+      default:  // no rewrite of its own (constant operands are folded before): rewrites are
+        break;  // optional, a missing one costs an optimisation and never changes a value
     }
     return -1;
   }
@@ -720,38 +691,20 @@ static std::vector<uint8_t> zeroSignReachesDivisor(const Dag& d, const std::vect
     if (!live[i] || !c.isOp()) continue;
     for (int k = 0; k < arity(c.op) && k < kMaxArity; ++k) {
       bool s = false;
-      switch (c.op) {
-        case Op::Div:
-          s = k == 1 || sens[i];
-          break;
-        case Op::Rcp:
+      switch (opInfo(c.op).zero_sign) {
+        case OpZeroSign::Reads:
           s = true;
           break;
-        case Op::Add:
-        case Op::Sub:
-        case Op::Mul:
-        case Op::Mad:
-        case Op::Neg:
-        case Op::Sin:
-        case Op::Min:
-        case Op::Max:
-        case Op::Lerp:
+        case OpZeroSign::DivisorReads:
+          s = k == 1 || sens[i];
+          break;
+        case OpZeroSign::Passes:
           s = sens[i];
           break;
-        case Op::Select:
+        case OpZeroSign::BranchesPass:
           s = k >= 2 && sens[i];
           break;
-        case Op::Abs:  // the same value for +0 and -0
-        case Op::Square:
-        case Op::Saturate:
-        case Op::Sqrt:
-        case Op::Rsqrt:
-        case Op::Exp2:
-        case Op::Exp:
-        case Op::Log2:
-        case Op::Log:
-        case Op::Pow:
-        case Op::Cos:
+        case OpZeroSign::Blocks:  // the same value for +0 and -0
           break;
       }
       if (s) sens[c.args[k]] = 1;

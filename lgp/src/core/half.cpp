@@ -1,9 +1,12 @@
-// binary16 rounding and the half-precision protected semantics (see half.hpp).
+// binary16 rounding and the half-precision protected semantics (see half.hpp): the
+// operators' own semantics (eval/semantics.hpp) over a scalar that rounds to half.
 #include "lgp/core/half.hpp"
 
 #include <bit>
 #include <cmath>
 #include <cstdint>
+
+#include "lgp/eval/semantics.hpp"
 
 namespace lgp {
 
@@ -22,70 +25,79 @@ float roundToHalf(float x) {
 }
 
 namespace {
-float guardH(float b) {
-  return std::fabs(b) < kHalfDivGuard ? std::copysign(kHalfDivGuard, b) : b;
+// A binary16 scalar for the operator semantics (eval/semantics.hpp): every arithmetic step
+// and every function's result rounded to half, as a half shader computes. It converts to and
+// from float, so that an operator computed by a float function (std::atan2) has half
+// semantics with no entry here: the function runs in float on the half operands and its
+// result is rounded once.
+struct Half {
+  float v = 0;
+  Half() = default;
+  Half(double x) : v(roundToHalf(static_cast<float>(x))) {}  // NOLINT: implicit by design
+  operator float() const { return v; }                       // NOLINT: exact
+  static Half from(float x) {                                // x is a half already
+    Half h;
+    h.v = x;
+    return h;
+  }
+};
+Half round(float x) {
+  return Half::from(roundToHalf(x));
 }
-float floorH(float a) {
-  return a > kHalfMinPos ? a : kHalfMinPos;
+Half operator+(Half a, Half b) {
+  return round(a.v + b.v);
 }
-float clampH(float a) {
-  return a > kHalfExpClamp ? kHalfExpClamp : (a < -kHalfExpClamp ? -kHalfExpClamp : a);
+Half operator-(Half a, Half b) {
+  return round(a.v - b.v);
 }
-float h(float x) {
-  return roundToHalf(x);
+Half operator*(Half a, Half b) {
+  return round(a.v * b.v);
+}
+Half operator/(Half a, Half b) {
+  return round(a.v / b.v);
+}
+Half operator-(Half a) {
+  return Half::from(-a.v);
+}
+bool operator<(Half a, Half b) {
+  return a.v < b.v;
+}
+bool operator>(Half a, Half b) {
+  return a.v > b.v;
+}
+Half fabs(Half a) {
+  return Half::from(std::fabs(a.v));
+}
+Half copysign(Half a, Half b) {
+  return Half::from(std::copysign(a.v, b.v));
 }
 }  // namespace
 
+template <>
+struct Math<Half> {
+  static Half exp2(Half x) { return round(std::exp2(x.v)); }
+  static Half log2(Half x) { return round(std::log2(x.v)); }
+  static Half sin(Half x) { return round(std::sin(x.v)); }
+  static Half cos(Half x) { return round(std::cos(x.v)); }
+  static Half sqrt(Half x) { return round(std::sqrt(x.v)); }
+  static Half rsqrt(Half x) { return round(1.0f / std::sqrt(x.v)); }  // one rounding, as a GPU
+};
+
+template <>
+struct Guards<Half> {
+  static constexpr double div = kHalfDivGuard;
+  static constexpr double min_pos = kHalfMinPos;
+  static constexpr double exp_clamp = kHalfExpClamp;
+};
+
 float applyHalf(Op op, float a, float b, float c, float d) {
-  a = h(a), b = h(b), c = h(c), d = h(d);
-  constexpr float kLog2E = 1.44269504f, kLn2 = 0.693147181f;
+  const Half x[4] = {a, b, c, d};
   switch (op) {
-    case Op::Add:
-      return h(a + b);
-    case Op::Sub:
-      return h(a - b);
-    case Op::Mul:
-      return h(a * b);
-    case Op::Div:
-      return h(a / guardH(b));
-    case Op::Mad:
-      return h(h(a * b) + c);
-    case Op::Neg:
-      return -a;
-    case Op::Rcp:
-      return h(1.0f / guardH(a));
-    case Op::Sqrt:
-      return h(std::sqrt(a > 0.0f ? a : 0.0f));
-    case Op::Rsqrt:
-      return h(1.0f / std::sqrt(floorH(a)));
-    case Op::Square:
-      return h(a * a);
-    case Op::Exp2:
-      return h(std::exp2(clampH(a)));
-    case Op::Log2:
-      return h(std::log2(floorH(a)));
-    case Op::Exp:
-      return h(std::exp2(clampH(h(a * h(kLog2E)))));
-    case Op::Log:
-      return h(h(std::log2(floorH(a))) * h(kLn2));
-    case Op::Pow:
-      return h(std::exp2(clampH(h(b * h(std::log2(floorH(a)))))));
-    case Op::Sin:
-      return h(std::sin(a));
-    case Op::Cos:
-      return h(std::cos(a));
-    case Op::Min:
-      return a < b ? a : b;
-    case Op::Max:
-      return a > b ? a : b;
-    case Op::Abs:
-      return std::fabs(a);
-    case Op::Saturate:
-      return a > 0.0f ? (a < 1.0f ? a : 1.0f) : 0.0f;
-    case Op::Lerp:
-      return h(a + h(h(b - a) * c));
-    case Op::Select:
-      return a > b ? c : d;
+#define LGP_X_CASE(E, ...) \
+  case Op::E:              \
+    return sem::apply<Op::E, Half>(x[0], x[1], x[2], x[3]).v;
+    LGP_OPS(LGP_X_CASE)
+#undef LGP_X_CASE
   }
   return 0.0f;
 }

@@ -233,35 +233,18 @@ Interval opInterval(Op op, const Interval* args) {
 }
 
 bool branchMaySwitch(Op op, const Interval* a) {
-  switch (op) {
-    case Op::Abs:
-      return a[0].nan || !(a[0].lo >= 0 || a[0].hi <= 0);
-    case Op::Saturate:  // kinks at 0 and 1; NaN -> 0 is a jump
-      return a[0].nan || !(a[0].hi <= 0 || (a[0].lo >= 0 && a[0].hi <= 1) || a[0].lo >= 1);
-    case Op::Min:
-    case Op::Max:
-      return !(dominatesBelow(a[0], a[1]) || dominatesBelow(a[1], a[0]));
-    case Op::Select:  // a > b ? c : d
-      return !((!a[0].nan && !a[1].nan && a[0].lo > a[1].hi) || dominatesBelow(a[0], a[1]));
-    case Op::Add:  // no branch
-    case Op::Sub:
-    case Op::Mul:
-    case Op::Div:
-    case Op::Mad:
-    case Op::Neg:
-    case Op::Rcp:
-    case Op::Sqrt:
-    case Op::Rsqrt:
-    case Op::Square:
-    case Op::Exp2:
-    case Op::Log2:
-    case Op::Exp:
-    case Op::Log:
-    case Op::Pow:
-    case Op::Sin:
-    case Op::Cos:
-    case Op::Lerp:
+  switch (opInfo(op).kink) {
+    case OpKink::None:
       return false;
+    case OpKink::Sign:
+      return a[0].nan || !(a[0].lo >= 0 || a[0].hi <= 0);
+    case OpKink::Unit:  // kinks at 0 and 1; NaN -> 0 is a jump
+      return a[0].nan || !(a[0].hi <= 0 || (a[0].lo >= 0 && a[0].hi <= 1) || a[0].lo >= 1);
+    case OpKink::Less:
+    case OpKink::Greater:
+      return !(dominatesBelow(a[0], a[1]) || dominatesBelow(a[1], a[0]));
+    case OpKink::Compare:  // a > b ? c : d
+      return !((!a[0].nan && !a[1].nan && a[0].lo > a[1].hi) || dominatesBelow(a[0], a[1]));
   }
   return true;
 }
@@ -270,45 +253,34 @@ bool provenUnguarded(Op op, const Interval* args) {
   const Interval& a = args[0];
   const double g = kDivGuard, m = kMinPos, e = kExpClamp;
   auto noGuard = [&](const Interval& b) { return !b.nan && (b.lo >= g || b.hi <= -g); };
-  switch (op) {
-    case Op::Div:
-      return noGuard(args[1]);
-    case Op::Rcp:
-      return noGuard(a);
-    case Op::Sqrt:
+  switch (opInfo(op).guard) {
+    case OpGuard::None:
+      return true;
+    case OpGuard::Divisor:  // the last operand: div's b, rcp's a
+      return noGuard(args[std::min(arity(op), kMaxArity) - 1]);
+    case OpGuard::Root:
       return !a.nan && a.lo >= 0;
-    case Op::Rsqrt:
-    case Op::Log2:
-    case Op::Log:
+    case OpGuard::Floor:
       return !a.nan && a.lo > m;
-    case Op::Exp2:
+    case OpGuard::Clamp:
       return !a.nan && a.lo >= -e && a.hi <= e;
-    case Op::Exp: {
+    case OpGuard::ScaledClamp: {
       const Interval s = widen(ivScale(a, sem::kLog2E));
       return !s.nan && s.lo >= -e && s.hi <= e;
     }
-    case Op::Pow: {
+    case OpGuard::PowClamp: {
       if (a.nan || !(a.lo > m)) return false;
       const Interval s = widen(ivMul(args[1], widen(ivLog2(a))));
       return !s.nan && s.lo >= -e && s.hi <= e;
     }
-    case Op::Saturate:
+    case OpGuard::NanToZero:
       return !a.nan;
-    case Op::Min:
-    case Op::Max:  // the C++ helpers order NaN like the interpreter; raw std::min does not
-      return !a.nan && !args[1].nan;
-    case Op::Add:  // no protected branch
-    case Op::Sub:
-    case Op::Mul:
-    case Op::Mad:
-    case Op::Neg:
-    case Op::Square:
-    case Op::Sin:
-    case Op::Cos:
-    case Op::Abs:
-    case Op::Lerp:
-    case Op::Select:
-      return true;
+    case OpGuard::NanOrder: {  // the C++ helpers order NaN like the interpreter; raw std::min does
+                               // not
+      bool nan = false;
+      for (int k = 0; k < std::min(arity(op), kMaxArity); ++k) nan = nan || args[k].nan;
+      return !nan;
+    }
   }
   return false;
 }

@@ -106,36 +106,32 @@ struct Node {
 // an operator without such a kink (the exp clamp at 2^126 and the division guard at 1e-20
 // are never reached by a fit).
 int branch(Op op, double a, double b) {
-  switch (op) {
-    case Op::Min:
+  switch (opInfo(op).kink) {
+    case OpKink::Less:
       return a < b;
-    case Op::Max:
+    case OpKink::Greater:
       return a > b;
-    case Op::Abs:
+    case OpKink::Sign:
       return a < 0;
-    case Op::Saturate:
+    case OpKink::Unit:
       return a <= 0 ? 0 : (a < 1 ? 1 : 2);
-    case Op::Sqrt:
+    case OpKink::Compare:  // never enumerated (four operands; see the operator list below)
+      return -1;
+    case OpKink::None:
+      break;
+  }
+  switch (opInfo(op).guard) {
+    case OpGuard::Root:
       return a > 0;
-    case Op::Rsqrt:
-    case Op::Log2:
-    case Op::Log:
-    case Op::Pow:
+    case OpGuard::Floor:
+    case OpGuard::PowClamp:
       return a > static_cast<double>(kMinPos);
-    case Op::Select:  // never enumerated (four operands; see the operator list below)
-    case Op::Add:
-    case Op::Sub:
-    case Op::Mul:
-    case Op::Div:
-    case Op::Mad:
-    case Op::Neg:
-    case Op::Rcp:
-    case Op::Square:
-    case Op::Exp2:
-    case Op::Exp:
-    case Op::Sin:
-    case Op::Cos:
-    case Op::Lerp:
+    case OpGuard::None:
+    case OpGuard::Divisor:
+    case OpGuard::Clamp:
+    case OpGuard::ScaledClamp:
+    case OpGuard::NanToZero:
+    case OpGuard::NanOrder:
       return -1;
   }
   return -1;

@@ -67,79 +67,121 @@ inline constexpr std::array<CostExtras, kNumCostTargets> kCostExtras = {
 // (the polynomial approximations of eval/vecmath.hpp: a few ulp).
 enum class OpRounding : uint8_t { Exact, Rounded, Approx };
 
-// X(Enum, name, arity, piecewise, guarded, default_set, commutative, rounding, cost {generic,
-//   nvidia, gcn, rdna, cpu}, guard cost {same targets}, infix, hlsl, glsl, cpp)
-// cost: the operator's price per DAG node; guard cost: what its protected branch adds where
-// interval analysis cannot prove it unreachable on the table's domain (cost_model.hpp).
-// piecewise: the operator has a branch (counts towards discontinuity unless the interval
-// analysis proves the branch never switches on the table's domain). guarded: the operator has a
-// protected branch (guard, floor, clamp, or saturate's NaN -> 0) that the emitters reproduce
-// with a helper unless it is proven unreachable. default_set: in the operators a config that
-// names none searches (config.hpp defaultOps). commutative: op(a, b) = op(b, a) for every
-// operand (the exhaustive enumeration keeps one order). rounding: OpRounding above. Templates
-// use {0}..{3} for operands. `infix` is the function-call spelling the parser accepts (the
-// formula printer, core/formula.hpp, prints arithmetic with operators instead); it names
-// protected functions by their op name.
+// Where an operator's value has a branch (the discontinuity objective counts it unless the
+// interval analysis proves it never switches on the table's domain; the exhaustive
+// enumeration keeps apart the sides of it): None (smooth), Sign (abs: at 0), Unit
+// (saturate: at 0 and at 1), Less (min: a < b ? a : b), Greater (max: a > b ? a : b),
+// Compare (select: a > b ? c : d).
+enum class OpKink : uint8_t { None, Sign, Unit, Less, Greater, Compare };
+
+// An operator's protected branch (the semantics at the top): None; Divisor (its last operand
+// goes through guard()); Root (sqrt of a negative is sqrt 0); Floor (the operand floored at
+// kMinPos); Clamp (the exponent clamped at kExpClamp); ScaledClamp (exp: the operand times
+// log2 e, clamped); PowClamp (pow: the base floored, the exponent clamped); NanToZero
+// (saturate); NanOrder (min, max: a NaN operand gives the other one or itself by the order of
+// the comparison, which raw std::min does not reproduce). The emitters write a helper for
+// each unless the interval analysis proves the branch unreachable (core/interval.hpp
+// provenUnguarded); every kind but NanOrder is priced as a guard (OpInfo::guarded).
+enum class OpGuard : uint8_t {
+  None,
+  Divisor,
+  Root,
+  Floor,
+  Clamp,
+  ScaledClamp,
+  PowClamp,
+  NanToZero,
+  NanOrder
+};
+
+// When the value never has its sign bit set (it is >= +0 unless NaN), for the simplifier's
+// sign-of-zero reasoning (core/expr.cpp): Never (as far as the rules know), Always, IfOperands
+// (when no operand has its sign bit set), IfBranches (select: when neither c nor d has).
+enum class OpNonNeg : uint8_t { Never, Always, IfOperands, IfBranches };
+
+// How the sign of a zero operand reaches the value (div and rcp's guard turn +0 and -0 into
+// +-1e20, so the simplifier keeps a zero's sign wherever it can reach one): Blocks (+0 and -0
+// give the same value bits), Passes (they may give a value of the other zero sign, never
+// another value), Reads (they may give different values), DivisorReads (div: the dividend
+// passes, the divisor reads), BranchesPass (select: c and d pass, a and b block).
+enum class OpZeroSign : uint8_t { Blocks, Passes, Reads, DivisorReads, BranchesPass };
+
+// X(Enum, name, arity, kink, guard, (nonneg, zero sign), default_set, commutative, rounding,
+//   cost {generic, nvidia, gcn, rdna, cpu}, guard cost {same targets}, infix, hlsl, glsl, cpp)
+// kink, guard, nonneg, zero sign: the enums above. cost: the operator's price per DAG node;
+// guard cost: what its protected branch adds where interval analysis cannot prove it
+// unreachable on the table's domain (cost_model.hpp). default_set: in the operators a config
+// that names none searches (config.hpp defaultOps). commutative: op(a, b) = op(b, a) for
+// every operand (the exhaustive enumeration keeps one order). rounding: OpRounding above.
+// Templates use {0}..{3} for operands. `infix` is the function-call spelling the parser
+// accepts (the formula printer, core/formula.hpp, prints arithmetic with operators instead);
+// it names protected functions by their op name. A language's spelling `name({0}, ...)` is
+// also a name the parser reads back (GLSL's mix, inversesqrt).
 //
-// Besides this row, an operator is described once in each place that a switch over Op with no
-// `default:` (or an `if constexpr` chain ending in a static_assert) makes the compiler name:
-// its semantics and partial derivatives (eval/semantics.hpp), interval rules
-// (core/interval.cpp), binary16 semantics (core/half.cpp), sign-of-zero and rewrite facts
-// (core/expr.cpp), the enumeration's branch sides (search/exhaustive.cpp) and the emitters'
-// helpers (emit/src/emit.cpp). tests/core/registry_coverage_test.cpp checks them all for every
-// operator (CONTRIBUTING.md, "Adding an operator").
+// Besides this row, an operator is described in three places that an `if constexpr` chain
+// ending in a static_assert or a switch with no `default:` makes the compiler name: its
+// semantics and partial derivatives (eval/semantics.hpp; binary16 semantics instantiate the
+// same template), its interval rule (core/interval.cpp rawInterval) and how the emitters
+// write it (emit/src/emit.cpp). Everything else that varies by operator reads the columns.
+// tests/core/registry_coverage_test.cpp holds every operator to its row (CONTRIBUTING.md,
+// "An operator").
 #define LGP_OPS(X)                                                                                 \
-  X(Add, "add", 2, false, false, true, true, Rounded, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),            \
-    "({0} + {1})", "({0} + {1})", "({0} + {1})", "({0} + {1})")                                    \
-  X(Sub, "sub", 2, false, false, true, false, Rounded, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),           \
-    "({0} - {1})", "({0} - {1})", "({0} - {1})", "({0} - {1})")                                    \
-  X(Mul, "mul", 2, false, false, true, true, Rounded, (0.75, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0),   \
-    "({0} * {1})", "({0} * {1})", "({0} * {1})", "({0} * {1})")                                    \
-  X(Div, "div", 2, false, true, true, false, Rounded, (1.75, 5, 1.5, 1.5, 4),                      \
-    (5.5, 0, 6.5, 4.75, 0), "({0} / {1})", "({0} / {1})", "({0} / {1})", "({0} / {1})")            \
-  X(Mad, "mad", 3, false, false, true, false, Rounded, (1.25, 1, 1.25, 1.25, 1), (0, 0, 0, 0, 0),  \
-    "mad({0}, {1}, {2})", "mad({0}, {1}, {2})", "({0} * {1} + {2})", "({0} * {1} + {2})")          \
-  X(Neg, "neg", 1, false, false, true, false, Exact, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0),      \
-    "(-{0})", "(-{0})", "(-{0})", "(-{0})")                                                        \
-  X(Rcp, "rcp", 1, false, true, true, false, Rounded, (0.75, 4, 0.75, 0.75, 4),                    \
+  X(Add, "add", 2, None, None, (IfOperands, Passes), true, true, Rounded, (1, 1, 1, 1, 1),         \
+    (0, 0, 0, 0, 0), "({0} + {1})", "({0} + {1})", "({0} + {1})", "({0} + {1})")                   \
+  X(Sub, "sub", 2, None, None, (Never, Passes), true, false, Rounded, (1, 1, 1, 1, 1),             \
+    (0, 0, 0, 0, 0), "({0} - {1})", "({0} - {1})", "({0} - {1})", "({0} - {1})")                   \
+  X(Mul, "mul", 2, None, None, (IfOperands, Passes), true, true, Rounded,                          \
+    (0.75, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "({0} * {1})", "({0} * {1})", "({0} * {1})",        \
+    "({0} * {1})")                                                                                 \
+  X(Div, "div", 2, None, Divisor, (IfOperands, DivisorReads), true, false, Rounded,                \
+    (1.75, 5, 1.5, 1.5, 4), (5.5, 0, 6.5, 4.75, 0), "({0} / {1})", "({0} / {1})", "({0} / {1})",   \
+    "({0} / {1})")                                                                                 \
+  X(Mad, "mad", 3, None, None, (IfOperands, Passes), true, false, Rounded,                         \
+    (1.25, 1, 1.25, 1.25, 1), (0, 0, 0, 0, 0), "mad({0}, {1}, {2})", "mad({0}, {1}, {2})",         \
+    "({0} * {1} + {2})", "({0} * {1} + {2})")                                                      \
+  X(Neg, "neg", 1, None, None, (Never, Passes), true, false, Exact, (0.5, 0, 0.75, 0.5, 1),        \
+    (0, 0, 0, 0, 0), "(-{0})", "(-{0})", "(-{0})", "(-{0})")                                       \
+  X(Rcp, "rcp", 1, None, Divisor, (Never, Reads), true, false, Rounded, (0.75, 4, 0.75, 0.75, 4),  \
     (5.5, 0, 6.5, 4.75, 0), "rcp({0})", "rcp({0})", "(1.0 / {0})", "(1.0f / {0})")                 \
-  X(Sqrt, "sqrt", 1, false, true, true, false, Rounded, (1, 8, 0.75, 0.75, 4), (2, 0, 2, 1.75, 0), \
-    "sqrt({0})", "sqrt({0})", "sqrt({0})", "std::sqrt({0})")                                       \
-  X(Rsqrt, "rsqrt", 1, false, true, true, false, Rounded, (1, 4, 0.75, 0.75, 5),                   \
+  X(Sqrt, "sqrt", 1, None, Root, (Always, Blocks), true, false, Rounded, (1, 8, 0.75, 0.75, 4),    \
+    (2, 0, 2, 1.75, 0), "sqrt({0})", "sqrt({0})", "sqrt({0})", "std::sqrt({0})")                   \
+  X(Rsqrt, "rsqrt", 1, None, Floor, (Always, Blocks), true, false, Rounded, (1, 4, 0.75, 0.75, 5), \
     (2, 0, 2.5, 1.75, 0), "rsqrt({0})", "rsqrt({0})", "inversesqrt({0})",                          \
     "(1.0f / std::sqrt({0}))")                                                                     \
-  X(Square, "square", 1, false, false, true, false, Rounded, (1, 1, 0.75, 0.75, 1),                \
-    (0, 0, 0, 0, 0), "square({0})", "({0} * {0})", "({0} * {0})", "({0} * {0})")                   \
-  X(Exp2, "exp2", 1, false, true, true, false, Approx, (0.75, 4, 0.75, 0.75, 8),                   \
+  X(Square, "square", 1, None, None, (Always, Blocks), true, false, Rounded,                       \
+    (1, 1, 0.75, 0.75, 1), (0, 0, 0, 0, 0), "square({0})", "({0} * {0})", "({0} * {0})",           \
+    "({0} * {0})")                                                                                 \
+  X(Exp2, "exp2", 1, None, Clamp, (Always, Blocks), true, false, Approx, (0.75, 4, 0.75, 0.75, 8), \
     (4.5, 0, 5.5, 4, 0), "exp2({0})", "exp2({0})", "exp2({0})", "std::exp2({0})")                  \
-  X(Log2, "log2", 1, false, true, true, false, Approx, (0.5, 4, 0.5, 0.5, 8),                      \
+  X(Log2, "log2", 1, None, Floor, (Never, Blocks), true, false, Approx, (0.5, 4, 0.5, 0.5, 8),     \
     (2.75, 0, 3.5, 2.5, 0), "log2({0})", "log2({0})", "log2({0})", "std::log2({0})")               \
-  X(Exp, "exp", 1, false, true, true, false, Approx, (1.75, 5, 1.5, 1.5, 9),                       \
-    (3.25, 0, 3.75, 2.75, 0), "exp({0})", "exp({0})", "exp({0})", "std::exp({0})")                 \
-  X(Log, "log", 1, false, true, true, false, Approx, (2, 5, 1.75, 1.75, 9), (2.25, 0, 2.75, 2, 0), \
-    "log({0})", "log({0})", "log({0})", "std::log({0})")                                           \
-  X(Pow, "pow", 2, false, true, true, false, Approx, (2.75, 9, 2.25, 2.5, 17),                     \
-    (7.25, 0, 9, 6.25, 0), "pow({0}, {1})", "pow({0}, {1})", "pow({0}, {1})",                      \
-    "std::pow({0}, {1})")                                                                          \
-  X(Sin, "sin", 1, false, false, false, false, Approx, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0),    \
-    "sin({0})", "sin({0})", "sin({0})", "std::sin({0})")                                           \
-  X(Cos, "cos", 1, false, false, false, false, Approx, (2, 4, 1.75, 1.75, 10), (0, 0, 0, 0, 0),    \
-    "cos({0})", "cos({0})", "cos({0})", "std::cos({0})")                                           \
-  X(Min, "min", 2, true, false, true, true, Exact, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),               \
-    "min({0}, {1})", "min({0}, {1})", "min({0}, {1})", "std::min({0}, {1})")                       \
-  X(Max, "max", 2, true, false, true, true, Exact, (1, 1, 1, 1, 1), (0, 0, 0, 0, 0),               \
-    "max({0}, {1})", "max({0}, {1})", "max({0}, {1})", "std::max({0}, {1})")                       \
-  X(Abs, "abs", 1, true, false, true, false, Exact, (0.5, 0, 0.75, 0.5, 1), (0, 0, 0, 0, 0),       \
-    "abs({0})", "abs({0})", "abs({0})", "std::fabs({0})")                                          \
-  X(Saturate, "saturate", 1, true, true, true, false, Exact, (0.5, 0, 0.5, 0.25, 2),               \
-    (0, 0, 0, 0, 0), "saturate({0})", "saturate({0})", "clamp({0}, 0.0, 1.0)",                     \
-    "std::clamp({0}, 0.0f, 1.0f)")                                                                 \
-  X(Lerp, "lerp", 3, false, false, true, false, Rounded, (1.25, 2, 1.25, 1.25, 2),                 \
+  X(Exp, "exp", 1, None, ScaledClamp, (Always, Blocks), true, false, Approx,                       \
+    (1.75, 5, 1.5, 1.5, 9), (3.25, 0, 3.75, 2.75, 0), "exp({0})", "exp({0})", "exp({0})",          \
+    "std::exp({0})")                                                                               \
+  X(Log, "log", 1, None, Floor, (Never, Blocks), true, false, Approx, (2, 5, 1.75, 1.75, 9),       \
+    (2.25, 0, 2.75, 2, 0), "log({0})", "log({0})", "log({0})", "std::log({0})")                    \
+  X(Pow, "pow", 2, None, PowClamp, (Always, Blocks), true, false, Approx,                          \
+    (2.75, 9, 2.25, 2.5, 17), (7.25, 0, 9, 6.25, 0), "pow({0}, {1})", "pow({0}, {1})",             \
+    "pow({0}, {1})", "std::pow({0}, {1})")                                                         \
+  X(Sin, "sin", 1, None, None, (Never, Passes), false, false, Approx, (2, 4, 1.75, 1.75, 10),      \
+    (0, 0, 0, 0, 0), "sin({0})", "sin({0})", "sin({0})", "std::sin({0})")                          \
+  X(Cos, "cos", 1, None, None, (Never, Blocks), false, false, Approx, (2, 4, 1.75, 1.75, 10),      \
+    (0, 0, 0, 0, 0), "cos({0})", "cos({0})", "cos({0})", "std::cos({0})")                          \
+  X(Min, "min", 2, Less, NanOrder, (IfOperands, Passes), true, true, Exact, (1, 1, 1, 1, 1),       \
+    (0, 0, 0, 0, 0), "min({0}, {1})", "min({0}, {1})", "min({0}, {1})", "std::min({0}, {1})")      \
+  X(Max, "max", 2, Greater, NanOrder, (IfOperands, Passes), true, true, Exact, (1, 1, 1, 1, 1),    \
+    (0, 0, 0, 0, 0), "max({0}, {1})", "max({0}, {1})", "max({0}, {1})", "std::max({0}, {1})")      \
+  X(Abs, "abs", 1, Sign, None, (Always, Blocks), true, false, Exact, (0.5, 0, 0.75, 0.5, 1),       \
+    (0, 0, 0, 0, 0), "abs({0})", "abs({0})", "abs({0})", "std::fabs({0})")                         \
+  X(Saturate, "saturate", 1, Unit, NanToZero, (Always, Blocks), true, false, Exact,                \
+    (0.5, 0, 0.5, 0.25, 2), (0, 0, 0, 0, 0), "saturate({0})", "saturate({0})",                     \
+    "clamp({0}, 0.0, 1.0)", "std::clamp({0}, 0.0f, 1.0f)")                                         \
+  X(Lerp, "lerp", 3, None, None, (Never, Passes), true, false, Rounded, (1.25, 2, 1.25, 1.25, 2),  \
     (0, 0, 0, 0, 0), "lerp({0}, {1}, {2})", "lerp({0}, {1}, {2})", "mix({0}, {1}, {2})",           \
     "({0} + ({1} - {0}) * {2})")                                                                   \
-  X(Select, "select", 4, true, false, true, false, Exact, (2.25, 2, 2.5, 2, 2), (0, 0, 0, 0, 0),   \
-    "select({0}, {1}, {2}, {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})",        \
-    "(({0} > {1}) ? {2} : {3})")
+  X(Select, "select", 4, Compare, None, (IfBranches, BranchesPass), true, false, Exact,            \
+    (2.25, 2, 2.5, 2, 2), (0, 0, 0, 0, 0), "select({0}, {1}, {2}, {3})",                           \
+    "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})", "(({0} > {1}) ? {2} : {3})")
 
 enum class Op : uint8_t {
 #define LGP_X_ENUM(E, ...) E,
@@ -157,8 +199,12 @@ struct OpInfo {
   Op op;
   std::string_view name;  // config / JSON / CLI spelling
   int arity;
-  bool piecewise;    // counts towards the discontinuity objective by default
-  bool guarded;      // has a protected branch (see the semantics at the top)
+  OpKink kink;
+  OpGuard guard;
+  OpNonNeg nonneg;
+  OpZeroSign zero_sign;
+  bool piecewise;    // kink != None: counts towards the discontinuity objective by default
+  bool guarded;      // guard other than None and NanOrder: a priced protected branch
   bool default_set;  // searched when a config names no operators
   bool commutative;  // op(a, b) = op(b, a)
   OpRounding rounding;
@@ -173,11 +219,28 @@ struct OpInfo {
 namespace detail {
 #define LGP_X_COST(a, b, c, d, e) \
   { a, b, c, d, e }
-#define LGP_X_INFO(E, NAME, AR, PW, GD, DS, CM, RND, COST, GCOST, INF, HL, GL, CP)            \
-  OpInfo{Op::E, NAME, AR, PW, GD, DS, CM, OpRounding::RND, LGP_X_COST COST, LGP_X_COST GCOST, \
-         INF,   HL,   GL, CP},
+#define LGP_X_SIGN(NN, ZS) OpNonNeg::NN, OpZeroSign::ZS
+#define LGP_X_INFO(E, NAME, AR, KINK, GUARD, SIGN, DS, CM, RND, COST, GCOST, INF, HL, GL, CP) \
+  OpInfo{Op::E,                                                                               \
+         NAME,                                                                                \
+         AR,                                                                                  \
+         OpKink::KINK,                                                                        \
+         OpGuard::GUARD,                                                                      \
+         LGP_X_SIGN SIGN,                                                                     \
+         OpKink::KINK != OpKink::None,                                                        \
+         OpGuard::GUARD != OpGuard::None && OpGuard::GUARD != OpGuard::NanOrder,              \
+         DS,                                                                                  \
+         CM,                                                                                  \
+         OpRounding::RND,                                                                     \
+         LGP_X_COST COST,                                                                     \
+         LGP_X_COST GCOST,                                                                    \
+         INF,                                                                                 \
+         HL,                                                                                  \
+         GL,                                                                                  \
+         CP},
 inline constexpr std::array<OpInfo, kNumOps> kOpTable = {{LGP_OPS(LGP_X_INFO)}};
 #undef LGP_X_INFO
+#undef LGP_X_SIGN
 #undef LGP_X_COST
 }  // namespace detail
 

@@ -2,7 +2,9 @@
 // The float32 SIMD kernels instantiate it with T = float (vectorised math from vecmath.hpp);
 // the reference evaluator with T = double (libm). Both therefore apply the same guards,
 // clamps and NaN conventions; they differ only by rounding and by the documented
-// approximation error of the float transcendentals. See ops.hpp for the table.
+// approximation error of the float transcendentals. See ops.hpp for the table. The binary16
+// semantics (core/half.cpp) instantiate it too, with a scalar that rounds every step to half
+// and the half guards (Guards below).
 #pragma once
 
 #include <array>
@@ -23,6 +25,7 @@ struct Math<float> {
   static float sin(float x) { return vm::sinf(x); }
   static float cos(float x) { return vm::cosf(x); }
   static float sqrt(float x) { return std::sqrt(x); }
+  static float rsqrt(float x) { return 1.0f / std::sqrt(x); }
 };
 
 template <>
@@ -32,23 +35,33 @@ struct Math<double> {
   static double sin(double x) { return std::sin(x); }
   static double cos(double x) { return std::cos(x); }
   static double sqrt(double x) { return std::sqrt(x); }
+  static double rsqrt(double x) { return 1.0 / std::sqrt(x); }
+};
+
+// The protected branches' constants per scalar type (binary16 has its own, half.hpp).
+template <class T>
+struct Guards {
+  static constexpr double div = kDivGuard;
+  static constexpr double min_pos = kMinPos;
+  static constexpr double exp_clamp = kExpClamp;
 };
 
 namespace sem {
 
 template <class T>
 inline T guard(T b) {
-  const T g = static_cast<T>(kDivGuard);
-  return std::fabs(b) < g ? std::copysign(g, b) : b;
+  using std::copysign, std::fabs;  // and the binary16 scalar's own
+  const T g = static_cast<T>(Guards<T>::div);
+  return fabs(b) < g ? copysign(g, b) : b;
 }
 template <class T>
 inline T floorPos(T a) {
-  const T m = static_cast<T>(kMinPos);
+  const T m = static_cast<T>(Guards<T>::min_pos);
   return a > m ? a : m;
 }
 template <class T>
 inline T clampExp(T a) {
-  const T c = static_cast<T>(kExpClamp);
+  const T c = static_cast<T>(Guards<T>::exp_clamp);
   return a > c ? c : (a < -c ? -c : a);  // NaN passes through
 }
 template <class T>
@@ -83,7 +96,7 @@ inline T apply(T a, [[maybe_unused]] T b, [[maybe_unused]] T c, [[maybe_unused]]
   else if constexpr (OP == Op::Sqrt)
     return Math<T>::sqrt(a > T(0) ? a : T(0));
   else if constexpr (OP == Op::Rsqrt)
-    return T(1) / Math<T>::sqrt(floorPos(a));
+    return Math<T>::rsqrt(floorPos(a));
   else if constexpr (OP == Op::Square)
     return a * a;
   else if constexpr (OP == Op::Exp2)
@@ -104,9 +117,10 @@ inline T apply(T a, [[maybe_unused]] T b, [[maybe_unused]] T c, [[maybe_unused]]
     return a < b ? a : b;
   else if constexpr (OP == Op::Max)
     return a > b ? a : b;
-  else if constexpr (OP == Op::Abs)
-    return std::fabs(a);
-  else if constexpr (OP == Op::Saturate)
+  else if constexpr (OP == Op::Abs) {
+    using std::fabs;
+    return fabs(a);
+  } else if constexpr (OP == Op::Saturate)
     return a > T(0) ? (a < T(1) ? a : T(1)) : T(0);
   else if constexpr (OP == Op::Lerp)
     return a + (b - a) * c;
