@@ -1,6 +1,8 @@
 // The compute-shader wrapper of compute_shader.hpp.
 #include "lgp/emit/compute_shader.hpp"
 
+#include "syntax.hpp"
+
 namespace lgp::emit {
 
 namespace {
@@ -11,34 +13,16 @@ struct KernelSyntax {
 };
 
 Expected<KernelSyntax> kernelSyntax(Language lang, bool half) {
-  switch (lang) {
-    case Language::Glsl:
-      return KernelSyntax{
-          std::string("#version 450\n") +
-              (half ? "#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require\n"
-                    : "") +
-              "layout(local_size_x = 64) in;\n"
-              "layout(std430, set = 0, binding = 0) readonly buffer LgpIn { float lgp_in[]; };\n"
-              "layout(std430, set = 0, binding = 1) writeonly buffer LgpOut { float lgp_out[]; "
-              "};\n"
-              "layout(push_constant) uniform LgpRows { uint lgp_rows; };\n",
-          "lgp_rows", "void main() {\n  uint lgp_i = gl_GlobalInvocationID.x;\n",
-          half ? "float16_t" : "float"};
-    case Language::Hlsl:
-      return KernelSyntax{
-          "[[vk::binding(0, 0)]] StructuredBuffer<float> lgp_in;\n"
-          "[[vk::binding(1, 0)]] RWStructuredBuffer<float> lgp_out;\n"
-          "struct LgpRows { uint rows; };\n"
-          "[[vk::push_constant]] ConstantBuffer<LgpRows> lgp_pc;\n",
-          "lgp_pc.rows",
-          "[numthreads(64, 1, 1)]\nvoid main(uint3 lgp_id : SV_DispatchThreadID) {\n"
-          "  uint lgp_i = lgp_id.x;\n",
-          half ? "half" : "float"};
-    case Language::Cpp:
-      break;
-  }
-  return Status::error("compute shader: " + std::string(languageInfo(lang).title) +
-                       " does not run on a GPU");
+  if (!languageInfo(lang).shader)
+    return Status::error("compute shader: " + std::string(languageInfo(lang).title) +
+                         " does not run on a GPU");
+  const detail::LanguageSyntax& syn = detail::syntaxOf(lang);
+  const Precision p = half ? Precision::Half : Precision::Float;
+  return KernelSyntax{std::string(syn.kernel_prologue) +
+                          (half ? std::string(syn.kernel_half_line) : std::string()) +
+                          std::string(syn.kernel_bindings),
+                      std::string(syn.kernel_rows), std::string(syn.kernel_main_open),
+                      std::string(syn.scalar_type[static_cast<int>(p)])};
 }
 }  // namespace
 

@@ -14,6 +14,7 @@
 #include "lgp/eval/semantics.hpp"
 #include "lgp/io/result.hpp"
 #include "metrics.hpp"
+#include "syntax.hpp"
 
 namespace lgp::emit {
 
@@ -74,119 +75,45 @@ const std::set<std::string>& reservedWords() {
   return k;
 }
 
-// What each language writes differently in a function body (one switch per decision).
-// The qualifier of a local (C++'s are const).
+// What each language writes differently (syntax.hpp's row of the language).
 std::string localQualifier(Language l) {
-  switch (l) {
-    case Language::Cpp:
-      return "const ";
-    case Language::Hlsl:
-    case Language::Glsl:
-      return "";
-  }
-  return "";
+  return std::string(detail::syntaxOf(l).local_qualifier);
 }
 // rcp where the protection is proven unreachable (`one`: 1 in the context's precision).
 std::string rawRcp(Language l, const std::string& one) {
-  switch (l) {
-    case Language::Hlsl:
-      return "rcp({0})";
-    case Language::Glsl:
-    case Language::Cpp:
-      return "(" + one + " / {0})";
-  }
-  return "";
+  return detail::replaceAll(std::string(detail::syntaxOf(l).raw_rcp), "$1", one);
 }
-// The language's own saturate has the interpreter's semantics (D3D: saturate(NaN) = 0).
 bool nativeSaturate(Language l) {
-  switch (l) {
-    case Language::Hlsl:
-      return true;
-    case Language::Glsl:
-    case Language::Cpp:
-      return false;
-  }
-  return false;
+  return detail::syntaxOf(l).native_saturate;
 }
 // saturate where its NaN branch is proven unreachable.
 std::string rawClamp01(Language l, const std::string& zero, const std::string& one) {
-  switch (l) {
-    case Language::Glsl:
-      return "clamp({0}, " + zero + ", " + one + ")";
-    case Language::Cpp:
-      return "std::clamp({0}, " + zero + ", " + one + ")";
-    case Language::Hlsl:
-      return "saturate({0})";
-  }
-  return "";
+  return detail::replaceAll(
+      detail::replaceAll(std::string(detail::syntaxOf(l).raw_clamp01), "$0", zero), "$1", one);
 }
-// min and max are written as the language's own (the GPU's); C++'s std::min orders NaN
-// unlike the interpreter, so C++ takes helpers unless NaN is proven absent.
+// min and max are written as the language's own (the GPU's) where it orders NaN like the
+// interpreter; elsewhere (C++'s std::min) helpers unless NaN is proven absent.
 bool rawMinMax(Language l) {
-  switch (l) {
-    case Language::Hlsl:
-    case Language::Glsl:
-      return true;
-    case Language::Cpp:
-      return false;
-  }
-  return false;
+  return detail::syntaxOf(l).raw_min_max;
 }
-
 // Whether results of two to four outputs can be a vector (float2, vec3); else a struct.
 bool hasVectorTypes(Language l) {
-  switch (l) {
-    case Language::Hlsl:
-    case Language::Glsl:
-      return true;
-    case Language::Cpp:
-      return false;
-  }
-  return false;
+  return !detail::syntaxOf(l).vector_prefix[static_cast<int>(Precision::Float)].empty();
 }
 std::string functionQualifier(Language l) {
-  switch (l) {
-    case Language::Cpp:
-      return "inline ";  // several translation units may include the code
-    case Language::Hlsl:
-    case Language::Glsl:
-      return "";
-  }
-  return "";
+  return std::string(detail::syntaxOf(l).function_qualifier);
 }
-// The mark of a parameter the formula does not read (C++ warns about it otherwise).
 std::string unusedParameter(Language l) {
-  switch (l) {
-    case Language::Cpp:
-      return "[[maybe_unused]] ";
-    case Language::Hlsl:
-    case Language::Glsl:
-      return "";
-  }
-  return "";
+  return std::string(detail::syntaxOf(l).unused_parameter);
 }
-// What half-precision code needs from its compiler, for the header ("" = nothing).
 std::string halfRequirement(Language l) {
-  switch (l) {
-    case Language::Glsl:
-      return "Needs #extension GL_EXT_shader_explicit_arithmetic_types_float16 : require";
-    case Language::Hlsl:
-    case Language::Cpp:
-      return "";
-  }
-  return "";
+  return std::string(detail::syntaxOf(l).half_requirement);
 }
 // The #include lines the code needs (`vm`: the exact-math helpers).
 std::string includeLines(Language l, bool vm) {
-  switch (l) {
-    case Language::Cpp:
-      return std::string("#include <algorithm>\n#include <cmath>\n") +
-             (vm ? "#include <cstdint>\n#include <cstring>\n" : "") + "\n";
-    case Language::Hlsl:
-    case Language::Glsl:
-      return "";
-  }
-  return "";
+  const auto& syn = detail::syntaxOf(l);
+  if (syn.includes.empty()) return "";
+  return std::string(syn.includes) + (vm ? std::string(syn.vm_includes) : "") + "\n";
 }
 
 std::string stripOuterParens(const std::string& s) {
@@ -405,15 +332,8 @@ class Renderer {
 };
 
 std::string vectorType(const Ctx& c, size_t k) {
-  switch (c.lang) {
-    case Language::Hlsl:
-      return detail::scalarType(c) + std::to_string(k);
-    case Language::Glsl:
-      return (c.prec == Precision::Half ? "f16vec" : "vec") + std::to_string(k);
-    case Language::Cpp:
-      return "";
-  }
-  return "";
+  const std::string_view prefix = detail::syntaxOf(c.lang).vector_prefix[static_cast<int>(c.prec)];
+  return prefix.empty() ? "" : std::string(prefix) + std::to_string(k);
 }
 
 std::string metricsLine(const nlohmann::json& m) {
@@ -479,8 +399,8 @@ Status EmitOptions::validate(Language lang) const {
   };
   const LanguageInfo& info = languageInfo(lang);
   if (precision == Precision::Half && !info.half)
-    return Status::error("precision: half is only available for " +
-                         offering(&LanguageInfo::half) + " (got " + std::string(info.name) + ")");
+    return Status::error("precision: half is only available for " + offering(&LanguageInfo::half) +
+                         " (got " + std::string(info.name) + ")");
   if (precision == Precision::Double && !info.double_precision)
     return Status::error("precision: double is only available for " +
                          offering(&LanguageInfo::double_precision) + " (got " +
@@ -569,15 +489,9 @@ struct Interface {
       list += (j ? ", " : "") + stripOuterParens(values[j]);
     if (k == 1) return "  return " + list + ";\n";
     if (!use_struct) return "  return " + ret_type + "(" + list + ");\n";
-    switch (lang) {
-      case Language::Cpp:
-        return "  return " + struct_name + "{" + list + "};\n";
-      case Language::Glsl:
-        return "  return " + struct_name + "(" + list + ");\n";
-      case Language::Hlsl:
-        return "  " + struct_name + " lgp_r = {" + list + "};\n  return lgp_r;\n";
-    }
-    return "";
+    return detail::replaceAll(
+        detail::replaceAll(std::string(detail::syntaxOf(lang).struct_return), "$S", struct_name),
+        "$L", list);
   }
   // How a caller reads output j of the result ("" for a scalar).
   std::string access(size_t j) const {
@@ -586,8 +500,8 @@ struct Interface {
   std::string signature(const std::string& name, const std::vector<uint8_t>& used) const {
     std::string sig = functionQualifier(lang) + ret_type + " " + name + "(";
     for (size_t i = 0; i < params.size(); ++i)
-      sig += (i ? ", " : "") + (used[i] ? std::string() : unusedParameter(lang)) + T + " " +
-             params[i];
+      sig +=
+          (i ? ", " : "") + (used[i] ? std::string() : unusedParameter(lang)) + T + " " + params[i];
     return sig + ")";
   }
   std::string structDef() const {
@@ -739,8 +653,7 @@ std::string halfRangeWarning(const Emitted& e) {
         "): infinite in half";
   if (!e.half_underflow.empty())
     w += (w.empty() ? "" : "; ") + list(e.half_underflow) +
-         " below binary16's smallest subnormal (" + formatFloat(kHalfMinSubnormal) +
-         "): 0 in half";
+         " below binary16's smallest subnormal (" + formatFloat(kHalfMinSubnormal) + "): 0 in half";
   if (w.empty()) return "";
   return w + ", so this member does not suit a half export (use float)";
 }

@@ -9,19 +9,12 @@
 
 #include "lgp/emit/half.hpp"
 #include "lgp/eval/semantics.hpp"
+#include "syntax.hpp"
 
 namespace lgp::emit::detail {
 
 std::string_view opSpelling(const OpInfo& info, Language l) {
-  switch (l) {
-    case Language::Hlsl:
-      return info.hlsl;
-    case Language::Glsl:
-      return info.glsl;
-    case Language::Cpp:
-      return info.cpp;
-  }
-  return info.infix;
+  return info.*(syntaxOf(l).spelling);
 }
 
 bool exactMath(const Ctx& c) {
@@ -29,50 +22,16 @@ bool exactMath(const Ctx& c) {
 }
 
 std::string scalarType(const Ctx& c) {
-  switch (c.lang) {
-    case Language::Glsl:  // no `half`: binary16 is float16_t (GL_EXT_shader_explicit_arithmetic_types)
-      if (c.prec == Precision::Half) return "float16_t";
-      break;
-    case Language::Hlsl:
-    case Language::Cpp:
-      break;
-  }
-  return std::string(toString(c.prec));
+  return std::string(syntaxOf(c.lang).scalar_type[static_cast<int>(c.prec)]);
 }
-
-namespace {
-// An infinite binary16 value: no language has a literal for it.
-std::string halfInfinity(Language l) {
-  switch (l) {
-    case Language::Glsl:
-      return "float16_t(uintBitsToFloat(0x7F800000u))";
-    case Language::Hlsl:
-      return "((half)asfloat(0x7F800000u))";
-    case Language::Cpp:  // no half (EmitOptions::validate)
-      return "std::numeric_limits<float>::infinity()";
-  }
-  return "";
-}
-
-// The suffix of a literal of the context's type.
-std::string_view literalSuffix(const Ctx& c) {
-  switch (c.lang) {
-    case Language::Glsl:
-      return c.prec == Precision::Half ? "hf" : "";
-    case Language::Hlsl:
-      return c.prec == Precision::Half ? "h" : "";
-    case Language::Cpp:
-      return c.prec == Precision::Float ? "f" : "";
-  }
-  return "";
-}
-}  // namespace
 
 std::string literal(double v, const Ctx& c) {
   // A constant beyond binary16's range is infinite in half (as lgp's half emulation has it):
   // built from its bit pattern.
-  if (c.prec == Precision::Half && !std::isfinite(roundToHalf(static_cast<float>(v))))
-    return v < 0 ? "(-" + halfInfinity(c.lang) + ")" : halfInfinity(c.lang);
+  if (c.prec == Precision::Half && !std::isfinite(roundToHalf(static_cast<float>(v)))) {
+    const std::string inf(syntaxOf(c.lang).half_infinity);
+    return v < 0 ? "(-" + inf + ")" : inf;
+  }
   std::string s;
   switch (c.prec) {
     case Precision::Float:
@@ -86,24 +45,16 @@ std::string literal(double v, const Ctx& c) {
       break;
   }
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
-  return s + std::string(literalSuffix(c));
+  return s + std::string(syntaxOf(c.lang).literal_suffix[static_cast<int>(c.prec)]);
 }
 
 std::string primitive(std::string_view fn, const Ctx& c) {
   if (exactMath(c) && (fn == "exp2" || fn == "log2" || fn == "sin" || fn == "cos"))
     return "lgp_vm_" + std::string(fn);
-  switch (c.lang) {
-    case Language::Cpp:
-      if (fn == "abs") return "std::fabs";
-      if (fn == "rsqrt") return "";  // none: 1 / std::sqrt
-      return "std::" + std::string(fn);
-    case Language::Glsl:
-      if (fn == "rsqrt") return "inversesqrt";
-      return std::string(fn);
-    case Language::Hlsl:
-      return std::string(fn);
-  }
-  return std::string(fn);
+  const LanguageSyntax& syn = syntaxOf(c.lang);
+  if (fn == "abs") return std::string(syn.abs);
+  if (fn == "rsqrt") return std::string(syn.rsqrt);  // "": none, 1 / sqrt
+  return std::string(syn.primitive_prefix) + std::string(fn);
 }
 
 std::string helperName(Helper h) {
@@ -269,35 +220,15 @@ std::string upper(std::string s) {
 // One helper's definition; `$T` is the scalar type, `$0`/`$1` literals 0 and 1, `$G` the
 // guard, `$M` the log/rsqrt floor, `$E` the exp clamp, `$L2E`/`$LN2` the constants of
 // exp/log, `$SQRT` etc. the primitives.
-// How the language writes the guard (copysign where it has one), rsqrt (where it has a
-// primitive) and the qualifier of a helper definition.
-struct HelperSyntax {
-  const char* guard;
-  const char* rsqrt;
-  const char* qualifier;
-};
-HelperSyntax helperSyntax(Language l) {
-  switch (l) {
-    case Language::Cpp:
-      return {"$T lgp_guard($T b) { return std::fabs(b) < $G ? std::copysign($G, b) : b; }",
-              "$T lgp_rsqrt($T a) { return $1 / $SQRT(a > $M ? a : $M); }", "inline "};
-    case Language::Hlsl:
-    case Language::Glsl:
-      return {"$T lgp_guard($T b) { return abs(b) < $G ? (b < $0 ? -$G : $G) : b; }",
-              "$T lgp_rsqrt($T a) { return $RSQRT(a > $M ? a : $M); }", ""};
-  }
-  return {"", "", ""};
-}
-
 std::string helperDef(Helper h, const Ctx& c) {
   const bool half = c.prec == Precision::Half;
-  const HelperSyntax syn = helperSyntax(c.lang);
+  const LanguageSyntax& syn = syntaxOf(c.lang);  // the guard, rsqrt and the qualifier
   std::string t;
   switch (h) {
     case Helper::Vm:
       return kVmText;
     case Helper::Guard:
-      t = syn.guard;
+      t = syn.guard_helper;
       break;
     case Helper::Div:
       t = "$T lgp_div($T a, $T b) { return a / lgp_guard(b); }";
@@ -309,7 +240,7 @@ std::string helperDef(Helper h, const Ctx& c) {
       t = "$T lgp_sqrt($T a) { return $SQRT(a > $0 ? a : $0); }";
       break;
     case Helper::Rsqrt:
-      t = syn.rsqrt;
+      t = syn.rsqrt_helper;
       break;
     case Helper::Log2:
       t = "$T lgp_log2($T a) { return $LOG2(a > $M ? a : $M); }";
@@ -338,7 +269,7 @@ std::string helperDef(Helper h, const Ctx& c) {
     case Helper::Count:
       return "";
   }
-  t = syn.qualifier + t;
+  t = std::string(syn.helper_qualifier) + t;
   const double g =
       half ? kHalfDivGuard : (c.prec == Precision::Double ? double(kDivGuard) : kDivGuard);
   const double m = half ? kHalfMinPos : double(kMinPos);

@@ -7,6 +7,7 @@
 #include "gpu_process.hpp"
 #include "lgp/emit/compute_shader.hpp"
 #include "metrics.hpp"
+#include "syntax.hpp"
 
 namespace lgp::emit {
 
@@ -17,14 +18,7 @@ const detail::DriverSpec kLavapipe{"run", ""};
 // Whether the language's half code is binary16 arithmetic, which a device without
 // shaderFloat16 cannot run (HLSL's half is relaxed precision: it runs everywhere).
 bool halfNeedsFloat16(Language l) {
-  switch (l) {
-    case Language::Glsl:
-      return true;
-    case Language::Hlsl:
-    case Language::Cpp:
-      return false;
-  }
-  return false;
+  return detail::syntaxOf(l).half_needs_float16;
 }
 
 }  // namespace
