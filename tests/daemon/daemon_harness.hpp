@@ -226,7 +226,7 @@ class Daemon {
   json waitFor(const std::string& id, const std::function<bool(const json&)>& pred,
                double timeout_s = 120) const {
     json last;
-    // LGP_TEST_TIME_SCALE (scripts/sanitize.sh sets it): an unoptimised, instrumented lgpd
+    // LGP_TEST_TIME_SCALE (scripts/sanitize.sh sets it): an instrumented lgpd (-O1 ASan)
     // runs the same generations many times slower; the deadline is a hang guard, not a bound.
     const char* k = std::getenv("LGP_TEST_TIME_SCALE");
     if (const double scale = k ? std::atof(k) : 1; scale > 1) timeout_s *= scale;
