@@ -890,11 +890,13 @@ Expected<std::optional<StoredFront>> Store::loadFront(const std::string& id) {
 
 Expected<std::vector<ProgressRow>> Store::history(const std::string& id, size_t max_rows) {
   LGPD_LEASE(l);
-  // The newest max_rows rows, returned oldest first.
+  // The newest max_rows rows and every lifecycle event, however old (a run resumed early in a
+  // long night keeps its "resumed" row), oldest first.
   Stmt st(l.db(),
           "SELECT t, generation, evaluations, elapsed_s, best_error, front_size, event FROM "
-          "(SELECT rowid AS r, * FROM progress WHERE run_id = ?1 ORDER BY rowid DESC LIMIT ?2) "
-          "ORDER BY r ASC");
+          "progress WHERE run_id = ?1 AND (rowid IN (SELECT rowid FROM progress WHERE run_id = "
+          "?1 ORDER BY rowid DESC LIMIT ?2) OR event IN ('started', 'resumed', 'finished', "
+          "'cancelled')) ORDER BY rowid ASC");
   if (!st.ok()) return sqlError(l.db(), "prepare history");
   st.bind(1, id).bind(2, static_cast<int64_t>(max_rows));
   std::vector<ProgressRow> out;

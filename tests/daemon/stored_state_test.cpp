@@ -1,7 +1,7 @@
 // What lgpd reads back from its own store and from a run's data file, changed behind its back
 // (hardening round 3): a database row nested 100k deep (front or config), a row with a status
-// or id that is not one, a checkpoint row with an island emptied, and a run's table rewritten with other
-// columns. Each gets an answer (a 4xx or 5xx naming the problem, the bad row left out of the
+// or id that is not one, a checkpoint row with an island emptied, and a run's table rewritten with
+// other columns. Each gets an answer (a 4xx or 5xx naming the problem, the bad row left out of the
 // listing, the checkpoint refused), and lgpd keeps serving.
 #include "daemon_harness.hpp"
 #include "store_rows.hpp"
@@ -158,6 +158,47 @@ TEST(StoredState, ResidualsOnARewrittenTableAre409) {
     }
     d.stop();
   }
+}
+
+// A long run's history keeps its lifecycle events: the newest 5000 rows come back, and every
+// started / resumed / finished / cancelled row however old (an overnight run with progress rows
+// every second has 28,800 by morning; its "resumed" row of the evening must not drop out).
+TEST(StoredState, HistoryKeepsLifecycleEventsPastItsNewestRows) {
+  TempDir tmp("history");
+  const fs::path state = tmp.path() / "state";
+  const std::string id = finishedRun(state, runConfig(writeGridTable(tmp.path()), 3));
+  ASSERT_FALSE(id.empty());
+  {  // 6000 plain progress rows after the run's own, as a long run would have written
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((state / "lgpd.sqlite3").c_str(), &db), SQLITE_OK);
+    const std::string sql =
+        "WITH RECURSIVE n(i) AS (SELECT 1 UNION ALL SELECT i + 1 FROM n WHERE i < 6000) "
+        "INSERT INTO progress (run_id, t, generation, evaluations, elapsed_s, best_error, "
+        "front_size, event) SELECT '" +
+        id + "', 2e9 + i, 3, i, i, 0.5, 1, '' FROM n";
+    char* err = nullptr;
+    const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
+    const std::string msg = err ? err : "";
+    sqlite3_free(err);
+    sqlite3_close(db);
+    ASSERT_EQ(rc, SQLITE_OK) << msg;
+  }
+  Daemon d(state);
+  ASSERT_TRUE(d.start()) << d.log();
+  Reply r = d.get("/api/v1/runs/" + id + "/history");
+  ASSERT_EQ(r.status, 200) << r.body;
+  const json hist = r.j()["history"];
+  int started = 0, finished = 0, plain = 0;
+  for (const auto& h : hist) {
+    started += h["event"] == "started";
+    finished += h["event"] == "finished";
+    plain += h["event"] == "";
+  }
+  EXPECT_EQ(started, 1);
+  EXPECT_EQ(finished, 1);
+  EXPECT_EQ(plain, 5000);                       // the newest 5000 rows are all plain ones here
+  EXPECT_EQ(hist.front()["event"], "started");  // oldest first
+  EXPECT_EQ(d.stop(), 0) << d.log();
 }
 
 }  // namespace
