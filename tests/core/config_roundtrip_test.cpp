@@ -43,7 +43,7 @@ json fullConfig() {
                "multi_output": {"mode": "joint", "first": "f", "first_share": 0.4,
                                 "first_max_cost": 9},
                "islands": {"count": 3, "migration_interval": 7, "migrants": 3, "restart_after": 9,
-                           "deal": "interleaved", "topology": "by_profile",
+                           "adaptive": 0.5, "adaptive_halflife": 20, "deal": "interleaved", "topology": "by_profile",
                            "profiles": [{"max_length": 20, "constants": 5, "weight_rate": 0.3,
                                          "share": 2, "error_bias": 0.7, "cost_strata": 2}]},
                "variation": {"crossover_rate": 0.4, "macro_rate": 0.3, "micro_rate": 0.2,

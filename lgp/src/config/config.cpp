@@ -422,6 +422,8 @@ void parseIslands(const nlohmann::json& j, IslandConfig& c) {
   o.integer("migration_interval", c.migration_interval, 0, 1 << 30);
   o.integer("migrants", c.migrants, 0, 1 << 20);
   o.integer("restart_after", c.restart_after, 0, 1 << 30);
+  o.number("adaptive", c.adaptive, 0, 0.95);
+  o.integer("adaptive_halflife", c.adaptive_halflife, 1, 1 << 20);
   if (o.has("deal")) {
     const auto& v = o.at("deal");
     if (v == "interleaved")
@@ -611,6 +613,8 @@ void parseMpi(const nlohmann::json& j, MpiConfig& m) {
 Status IslandConfig::validate() const {
   if (count < 1) return Status::error("count: must be >= 1");
   if (migrants < 0) return Status::error("migrants: must be >= 0");
+  if (!(adaptive >= 0 && adaptive <= 0.95)) return Status::error("adaptive: must be in [0, 0.95]");
+  if (adaptive_halflife < 1) return Status::error("adaptive_halflife: must be >= 1");
   return Status::ok();
 }
 
@@ -951,6 +955,10 @@ nlohmann::json toJson(const RunConfig& c) {
   if (c.program.genes != 1) out["program"]["genes"] = c.program.genes;
   out["search"]["variation"]["weight_rate"] = c.search.variation.weight_rate;
   out["search"]["variation"]["weight_min_length"] = c.search.variation.weight_min_length;
+  if (c.search.islands.adaptive != 0)
+    out["search"]["islands"]["adaptive"] = c.search.islands.adaptive;
+  if (c.search.islands.adaptive_halflife != 50)
+    out["search"]["islands"]["adaptive_halflife"] = c.search.islands.adaptive_halflife;
   if (c.search.islands.topology != MigrationTopology::Ring)
     out["search"]["islands"]["topology"] = std::string(toString(c.search.islands.topology));
   {

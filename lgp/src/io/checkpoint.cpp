@@ -106,7 +106,8 @@ nlohmann::json islandToJson(const Search::Island& isl) {
           {"rank", isl.rank},
           {"crowd", crowd},
           {"best", std::isfinite(isl.best) ? nlohmann::json(isl.best) : nullptr},
-          {"stagnant", isl.stagnant}};
+          {"stagnant", isl.stagnant},
+          {"credit", isl.credit}};
 }
 
 // An island from its JSON: every program held to `shape` and its claimed error scored again
@@ -132,6 +133,11 @@ Status islandFromJson(const nlohmann::json& ji, const ProgramShape& shape, Score
   auto stagnant = counter<int>(ji, "stagnant");
   if (!stagnant) return Status::error(stagnant.error() + " (" + at + ")");
   isl.stagnant = *stagnant;
+  // Absent from checkpoints written before search.islands.adaptive: no credit yet.
+  isl.credit =
+      ji.contains("credit") && ji.at("credit").is_number() ? ji.at("credit").get<double>() : 0;
+  if (!(std::isfinite(isl.credit) && isl.credit >= 0))
+    return Status::error("checkpoint: " + at + ": credit must be a finite number >= 0");
   return Status::ok();
 }
 

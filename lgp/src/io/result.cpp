@@ -93,6 +93,7 @@ nlohmann::json frontToJson(const Search& s, const std::vector<FrontEntry>& front
                              {"migrants", p.migrants},     {"restarts", p.restarts},
                              {"ranks", p.ranks},           {"remote_migrants", p.remote_migrants}};
   if (!s.structuredInfo().is_null()) progress["structured"] = s.structuredInfo();
+  if (cfg.search.islands.adaptive > 0) progress["island_offspring"] = p.island_offspring;
   if (auto st = s.stagesInfo(); !st.is_null()) progress["stages"] = std::move(st);
   return {{"format", "lgp-front/1"},
           {"config", toJson(cfg)},

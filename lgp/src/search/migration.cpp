@@ -65,6 +65,36 @@ std::vector<int> islandSizes(int population, int islands,
   return size;
 }
 
+std::vector<int> offspringCounts(const std::vector<int>& sizes, const std::vector<double>& credit,
+                                 double adaptive) {
+  const int islands = static_cast<int>(sizes.size());
+  const int total = std::accumulate(sizes.begin(), sizes.end(), 0);
+  double sum = 0;
+  for (double c : credit) sum += std::isfinite(c) && c > 0 ? c : 0;
+  if (islands < 2 || adaptive <= 0 || !(sum > 0) || credit.size() != sizes.size()) return sizes;
+  std::vector<int> count(islands);
+  std::vector<double> frac(islands);
+  int given = 0;
+  for (int k = 0; k < islands; ++k) {
+    const double c = std::isfinite(credit[k]) && credit[k] > 0 ? credit[k] : 0;
+    const double exact = total * ((1 - adaptive) * sizes[k] / total + adaptive * c / sum);
+    count[k] = std::max(1, static_cast<int>(std::floor(exact)));
+    frac[k] = exact - std::floor(exact);
+    given += count[k];
+  }
+  std::vector<int> order(islands);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return frac[a] > frac[b]; });
+  for (int j = 0; given < total; j = (j + 1) % islands, ++given) ++count[order[j]];
+  // An island raised to its one offspring is paid for by the largest (ties: the lowest).
+  while (given > total) {
+    const auto big = std::max_element(count.begin(), count.end());
+    --*big;
+    --given;
+  }
+  return count;
+}
+
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile) {
   ProgramShape s = run;
   if (profile.max_length > 0)

@@ -658,9 +658,10 @@ void Search::step(bool check_budget) {
   const auto& var = cfg_.search.variation;
   const auto& ic = cfg_.search.islands;
   // Offspring i belongs to island owner[i]; islands own consecutive ranges.
+  const std::vector<int> bred = offspringPerIsland();
   std::vector<int> owner(n), first(count + 1, 0);
   for (int k = 0; k < count; ++k) {
-    first[k + 1] = first[k] + islandSize(island_first_ + k);
+    first[k + 1] = first[k] + bred[k];
     for (int i = first[k]; i < first[k + 1]; ++i) owner[i] = k;
   }
   // A stagnant island starts over: random programs, plus archive members to build on.
@@ -728,7 +729,23 @@ void Search::step(bool check_budget) {
     if (i >= base) refine[i - base] = chosen || weighted[i - base];
   }
   evaluateAll(off, refine, static_cast<uint64_t>(g), static_cast<uint64_t>(base));
-  for (const auto& ind : off) archiveInsert(ind.program, ind.obj, ind.refined);
+  const bool adaptive = ic.adaptive > 0 && count > 1;
+  if (adaptive) {
+    std::vector<Objectives> held;
+    held.reserve(archived.size());
+    for (const auto& m : archived) held.push_back(m.obj);
+    front_gain_.reset(held);
+  }
+  std::vector<double> gain(count, 0.0);
+  for (int i = 0; i < n; ++i) {
+    Objectives stored;
+    if (archiveInsert(off[i].program, off[i].obj, off[i].refined, &stored) && adaptive)
+      gain[owner[i]] += front_gain_.add(stored);
+  }
+  if (adaptive) {
+    const double fade = std::exp2(-1.0 / ic.adaptive_halflife);
+    for (int k = 0; k < count; ++k) islands_[k].credit = islands_[k].credit * fade + gain[k];
+  }
 
 #pragma omp parallel for num_threads(threads_) schedule(static, 1)
   for (int k = 0; k < count; ++k) {
@@ -737,7 +754,7 @@ void Search::step(bool check_budget) {
     if (!restart[k]) pool = std::move(isl.pop);
     pool.insert(pool.end(), std::make_move_iterator(off.begin() + first[k]),
                 std::make_move_iterator(off.begin() + first[k + 1]));
-    survive(island_first_ + k, isl, pool, first[k + 1] - first[k]);
+    survive(island_first_ + k, isl, pool, islandSize(island_first_ + k));
     double best = kInf;
     for (const auto& ind : isl.pop) best = std::min(best, ind.obj.error);
     if (restart[k]) {
@@ -859,26 +876,38 @@ void Search::setCostMeasure(CostMeasure measure, CostModel predictor, double sla
   measure_slack_ = slack;
 }
 
-void Search::archiveInsert(const Program& p, const Objectives& o, bool refined) {
+bool Search::archiveInsert(const Program& p, const Objectives& o, bool refined,
+                           Objectives* stored) {
   // Only what the archive would take is checked on every row (the sampled rows already passed).
-  if (!o.finite()) return;
-  if (!measure_) {
-    if (!archive_.rejects(o) && fidelityOnEveryRow(p)) archive_.insert(p, o, refined);
-    return;
-  }
+  if (!o.finite()) return false;
+  if (stored) *stored = o;
+  if (!measure_)
+    return !archive_.rejects(o) && fidelityOnEveryRow(p) && archive_.insert(p, o, refined);
   Scorer& s = scorer(0);
   const Program fp = finalProgram(s, p);
   Objectives m = o;
   m.cost =
       std::max(0.0, measure_predictor_.programCost(fp) +
                         measure_predictor_.transformCost(err_cfg_.transforms) - measure_slack_);
-  if (archive_.rejects(m) || !fidelityOnEveryRow(p)) return;
+  if (archive_.rejects(m) || !fidelityOnEveryRow(p)) return false;
   const auto t0 = std::chrono::steady_clock::now();
   const auto c = measure_(fp);
   measure_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ++measurements_;
   m.cost = c ? *c : o.cost;
-  archive_.insert(p, m, refined);
+  if (stored) *stored = m;
+  return archive_.insert(p, m, refined);
+}
+
+std::vector<int> Search::offspringPerIsland() const {
+  const int count = static_cast<int>(islands_.size());
+  std::vector<int> sizes(count);
+  std::vector<double> credit(count);
+  for (int k = 0; k < count; ++k) {
+    sizes[k] = islandSize(island_first_ + k);
+    credit[k] = islands_[k].credit;
+  }
+  return offspringCounts(sizes, credit, cfg_.search.islands.adaptive);
 }
 
 RefineStats Search::refineStats() const {
@@ -911,6 +940,7 @@ SearchProgress Search::progress() const {
   p.migrants = migrants_before_ + (transport_ ? transport_->sent() : 0);
   p.remote_migrants = remote_migrants_before_ + (transport_ ? transport_->sentRemote() : 0);
   p.restarts = restarts_;
+  if (initialized_ && !islands_.empty()) p.island_offspring = offspringPerIsland();
   p.ranks = ranks_;
   p.threads = threads_;
   p.cost_measurements = measurements_;

@@ -192,6 +192,13 @@ struct IslandConfig {
   // Who sends migrants to whom: "ring" (the next island) or "by_profile" (the next island of
   // the same profile).
   MigrationTopology topology = MigrationTopology::Ring;
+  // Time goes where the front moves: this share of each generation's offspring is dealt in
+  // proportion to each island's recent front gain (FrontGain: the area taken off the staircase
+  // of log10 error over cost), the rest as the population is (shares); 0 = fixed. Islands of
+  // one process only (an MPI rank deals its own). The credit fades by half every
+  // adaptive_halflife generations.
+  double adaptive = 0;
+  int adaptive_halflife = 50;
   Status validate() const;
 };
 

@@ -94,6 +94,13 @@ struct IslandProfile {
 std::vector<int> islandSizes(int population, int islands,
                              const std::vector<IslandProfile>& profiles);
 
+// Offspring per island for one generation (search.islands.adaptive): the islands' total
+// population, a share 1 - adaptive of it dealt as `sizes` are and the rest in proportion to
+// `credit` (each island's recent front gain, FrontGain), largest remainders first and ties to
+// the lower island; at least one each. No credit yet (or adaptive 0, or one island): `sizes`.
+std::vector<int> offspringCounts(const std::vector<int>& sizes, const std::vector<double>& credit,
+                                 double adaptive);
+
 // The shape an island's variation works with: the run's, with the profile's smaller length and
 // constant count.
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile);

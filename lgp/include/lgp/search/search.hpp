@@ -53,6 +53,7 @@
 #include "lgp/eval/fidelity.hpp"
 #include "lgp/eval/interpreter.hpp"
 #include "lgp/eval/objectives.hpp"
+#include "lgp/search/front_gain.hpp"
 #include "lgp/search/levenberg_marquardt.hpp"
 #include "lgp/search/migration.hpp"
 #include "lgp/search/pareto.hpp"
@@ -91,6 +92,9 @@ struct SearchProgress {
   int ranks = 1;                 // MPI ranks the islands are spread over (1 = one process)
   int threads = 1;               // OpenMP threads (per rank)
   uint64_t remote_migrants = 0;  // of `migrants`, those sent to an island on another rank
+  // Offspring each of this process's islands breeds in the next generation (they follow the
+  // front's gains under search.islands.adaptive, else the population's split).
+  std::vector<int> island_offspring;
   // Measured cost in the archive (Search::setCostMeasure): candidates measured, and the wall
   // time the measurements took.
   uint64_t cost_measurements = 0;
@@ -235,7 +239,8 @@ class Search {
     std::vector<int> rank;
     std::vector<double> crowd;
     double best = std::numeric_limits<double>::infinity();  // lowest error seen here
-    int stagnant = 0;  // generations since `best` last improved
+    int stagnant = 0;   // generations since `best` last improved
+    double credit = 0;  // recent front gain of its offspring (search.islands.adaptive)
   };
   // The structured fits of the table, in the run's shape, scored and offered to the archive;
   // returned in order of cost, the ones no other fit dominates.
@@ -309,8 +314,12 @@ class Search {
   int offspringBase() const;    // global index of this search's first offspring
   void migrate(int generation);
   void refineArchive();
-  // archive_.insert, with the measured cost where setCostMeasure was called.
-  void archiveInsert(const Program& p, const Objectives& o, bool refined);
+  // archive_.insert, with the measured cost where setCostMeasure was called; true if the
+  // archive took it, with the objectives it holds in `stored`.
+  bool archiveInsert(const Program& p, const Objectives& o, bool refined,
+                     Objectives* stored = nullptr);
+  // Offspring per local island this generation (search.islands.adaptive).
+  std::vector<int> offspringPerIsland() const;
   double elapsed() const;
   std::string stopReason() const;
   Scorer& scorer(int thread);
@@ -363,6 +372,7 @@ class Search {
   uint64_t restarts_ = 0;
   uint64_t migrants_before_ = 0;  // migrants of earlier sessions (restored checkpoints)
   Archive archive_;
+  FrontGain front_gain_;  // what each generation's offspring add to the front, per island
   int generation_ = 0;
   bool initialized_ = false;
   uint64_t evaluations_ = 0;
