@@ -657,17 +657,17 @@ void Search::step(bool check_budget) {
   const int count = static_cast<int>(islands_.size());
   const auto& var = cfg_.search.variation;
   const auto& ic = cfg_.search.islands;
+  // A stagnant island starts over: random programs, plus archive members to build on.
+  std::vector<uint8_t> restart(count, 0);
+  if (ic.restart_after > 0)
+    for (int k = 0; k < count; ++k) restart[k] = islands_[k].stagnant >= ic.restart_after;
   // Offspring i belongs to island owner[i]; islands own consecutive ranges.
-  const std::vector<int> bred = offspringPerIsland();
+  const std::vector<int> bred = offspringPerIsland(restart);
   std::vector<int> owner(n), first(count + 1, 0);
   for (int k = 0; k < count; ++k) {
     first[k + 1] = first[k] + bred[k];
     for (int i = first[k]; i < first[k + 1]; ++i) owner[i] = k;
   }
-  // A stagnant island starts over: random programs, plus archive members to build on.
-  std::vector<uint8_t> restart(count, 0);
-  if (ic.restart_after > 0)
-    for (int k = 0; k < count; ++k) restart[k] = islands_[k].stagnant >= ic.restart_after;
   InitConfig init{cfg_.program.init_min_length, cfg_.program.init_max_length,
                   cfg_.program.const_min, cfg_.program.const_max};
   const auto& archived = archive_.members();
@@ -899,15 +899,22 @@ bool Search::archiveInsert(const Program& p, const Objectives& o, bool refined,
   return archive_.insert(p, m, refined);
 }
 
-std::vector<int> Search::offspringPerIsland() const {
+std::vector<int> Search::offspringPerIsland(const std::vector<uint8_t>& restart) const {
   const int count = static_cast<int>(islands_.size());
-  std::vector<int> sizes(count);
-  std::vector<double> credit(count);
+  std::vector<int> out(count), sizes;
+  std::vector<double> credit;
+  // A restarting island's offspring are its whole new population: it breeds its size, and
+  // the others share the rest.
   for (int k = 0; k < count; ++k) {
-    sizes[k] = islandSize(island_first_ + k);
-    credit[k] = islands_[k].credit;
+    out[k] = islandSize(island_first_ + k);
+    if (!restart.empty() && restart[k]) continue;
+    sizes.push_back(out[k]);
+    credit.push_back(islands_[k].credit);
   }
-  return offspringCounts(sizes, credit, cfg_.search.islands.adaptive);
+  const std::vector<int> dealt = offspringCounts(sizes, credit, cfg_.search.islands.adaptive);
+  for (int k = 0, j = 0; k < count; ++k)
+    if (restart.empty() || !restart[k]) out[k] = dealt[static_cast<size_t>(j++)];
+  return out;
 }
 
 RefineStats Search::refineStats() const {

@@ -318,8 +318,9 @@ class Search {
   // archive took it, with the objectives it holds in `stored`.
   bool archiveInsert(const Program& p, const Objectives& o, bool refined,
                      Objectives* stored = nullptr);
-  // Offspring per local island this generation (search.islands.adaptive).
-  std::vector<int> offspringPerIsland() const;
+  // Offspring per local island this generation (search.islands.adaptive); an island that
+  // restarts (restart[k]) breeds its whole population.
+  std::vector<int> offspringPerIsland(const std::vector<uint8_t>& restart = {}) const;
   double elapsed() const;
   std::string stopReason() const;
   Scorer& scorer(int thread);
