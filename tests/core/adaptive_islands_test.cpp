@@ -17,33 +17,27 @@
 namespace lgp {
 namespace {
 
-Objectives at(double error, double cost) {
-  Objectives o;
-  o.error = error;
-  o.cost = cost;
-  return o;
-}
-
 TEST(FrontGain, AreaTakenOffTheStaircase) {
   FrontGain g(64);
-  g.reset({at(0.1, 2), at(0.01, 10)});
+  g.reset({Objectives{0.1, 2}, Objectives{0.01, 10}});
   // Bands 5-9 fall from 0.1 to 0.05; from band 10 on 0.01 is better already.
-  EXPECT_NEAR(g.add(at(0.05, 5)), 5 * std::log10(2.0), 1e-12);
-  EXPECT_EQ(g.add(at(0.05, 5)), 0);  // the staircase holds it now
-  EXPECT_EQ(g.add(at(0.07, 6.5)), 0);
+  EXPECT_NEAR(g.add(Objectives{0.05, 5}), 5 * std::log10(2.0), 1e-12);
+  EXPECT_EQ(g.add(Objectives{0.05, 5}), 0);  // the staircase holds it now
+  EXPECT_EQ(g.add(Objectives{0.07, 6.5}), 0);
   // A halving at the accurate end is worth a halving at the cheap end, band for band.
-  EXPECT_NEAR(g.add(at(0.005, 60)), 4 * std::log10(2.0), 1e-12);
-  EXPECT_NEAR(g.add(at(0.025, 60)), 0, 1e-12);
+  EXPECT_NEAR(g.add(Objectives{0.005, 60}), 4 * std::log10(2.0), 1e-12);
+  EXPECT_NEAR(g.add(Objectives{0.025, 60}), 0, 1e-12);
   // Past the last band, not finite, or worse than everything: nothing.
-  EXPECT_EQ(g.add(at(1e-9, 64)), 0);
-  EXPECT_EQ(g.add(at(std::numeric_limits<double>::infinity(), 3)), 0);
-  EXPECT_EQ(g.add(at(std::nan(""), 3)), 0);
-  EXPECT_EQ(g.add(at(0.5, 0)), 0);
+  EXPECT_EQ(g.add(Objectives{1e-9, 64}), 0);
+  EXPECT_EQ(g.add(Objectives{std::numeric_limits<double>::infinity(), 3}), 0);
+  EXPECT_EQ(g.add(Objectives{std::nan(""), 3}), 0);
+  EXPECT_EQ(g.add(Objectives{0.5, 0}), 0);
   // Below every member the worst error of the reset is the reference, and an exact fit gains
   // a bounded area (errors count from 1e-12).
-  g.reset({at(0.1, 2), at(0.01, 10)});
-  EXPECT_NEAR(g.add(at(0.01, 0)), 2 * 1.0 + 8 * 1.0, 1e-12);  // bands 0-1 from the reference 0.1
-  const double exact = g.add(at(0, 20));
+  g.reset({Objectives{0.1, 2}, Objectives{0.01, 10}});
+  EXPECT_NEAR(g.add(Objectives{0.01, 0}), 2 * 1.0 + 8 * 1.0,
+              1e-12);  // bands 0-1 from the reference 0.1
+  const double exact = g.add(Objectives{0, 20});
   EXPECT_NEAR(exact, 44 * 10.0, 1e-9);
 }
 

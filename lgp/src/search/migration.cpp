@@ -40,6 +40,35 @@ std::vector<int> dealIslands(const std::vector<Objectives>& objs, int islands, I
   return to;
 }
 
+namespace {
+
+// `total` dealt as `exact` says (exact sums to total): each entry gets floor(exact[k]), at
+// least `at_least`, and what is left goes one each to the largest fractional parts (ties to the
+// lower index); where `at_least` raised entries past `total`, the largest entries (ties: the
+// lowest index) give the excess back one at a time.
+std::vector<int> largestRemainders(int total, const std::vector<double>& exact, int at_least) {
+  const int n = static_cast<int>(exact.size());
+  std::vector<int> count(n);
+  std::vector<double> frac(n);
+  int given = 0;
+  for (int k = 0; k < n; ++k) {
+    count[k] = std::max(at_least, static_cast<int>(std::floor(exact[k])));
+    frac[k] = exact[k] - std::floor(exact[k]);
+    given += count[k];
+  }
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return frac[a] > frac[b]; });
+  for (int j = 0; given < total && n > 0; j = (j + 1) % n, ++given) ++count[order[j]];
+  while (given > total) {
+    --*std::max_element(count.begin(), count.end());
+    --given;
+  }
+  return count;
+}
+
+}  // namespace
+
 std::vector<int> islandSizes(int population, int islands,
                              const std::vector<IslandProfile>& profiles) {
   if (islands < 1) return {};
@@ -48,19 +77,9 @@ std::vector<int> islandSizes(int population, int islands,
     for (int k = 0; k < islands; ++k)
       share[k] = profiles[static_cast<size_t>(k) % profiles.size()].share;
   const double sum = std::accumulate(share.begin(), share.end(), 0.0);
-  std::vector<int> size(islands);
-  std::vector<double> frac(islands);
-  int given = 0;
-  for (int k = 0; k < islands; ++k) {
-    const double exact = population * share[k] / sum;
-    size[k] = static_cast<int>(std::floor(exact));
-    frac[k] = exact - size[k];
-    given += size[k];
-  }
-  std::vector<int> order(islands);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return frac[a] > frac[b]; });
-  for (int j = 0; given < population && j < islands; ++j, ++given) ++size[order[j]];
+  std::vector<double> exact(islands);
+  for (int k = 0; k < islands; ++k) exact[k] = population * share[k] / sum;
+  std::vector<int> size = largestRemainders(population, exact, 0);
   for (int& s : size) s = std::max(s, 4);
   return size;
 }
@@ -72,27 +91,12 @@ std::vector<int> offspringCounts(const std::vector<int>& sizes, const std::vecto
   double sum = 0;
   for (double c : credit) sum += std::isfinite(c) && c > 0 ? c : 0;
   if (islands < 2 || adaptive <= 0 || !(sum > 0) || credit.size() != sizes.size()) return sizes;
-  std::vector<int> count(islands);
-  std::vector<double> frac(islands);
-  int given = 0;
+  std::vector<double> exact(islands);
   for (int k = 0; k < islands; ++k) {
     const double c = std::isfinite(credit[k]) && credit[k] > 0 ? credit[k] : 0;
-    const double exact = total * ((1 - adaptive) * sizes[k] / total + adaptive * c / sum);
-    count[k] = std::max(1, static_cast<int>(std::floor(exact)));
-    frac[k] = exact - std::floor(exact);
-    given += count[k];
+    exact[k] = total * ((1 - adaptive) * sizes[k] / total + adaptive * c / sum);
   }
-  std::vector<int> order(islands);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return frac[a] > frac[b]; });
-  for (int j = 0; given < total; j = (j + 1) % islands, ++given) ++count[order[j]];
-  // An island raised to its one offspring is paid for by the largest (ties: the lowest).
-  while (given > total) {
-    const auto big = std::max_element(count.begin(), count.end());
-    --*big;
-    --given;
-  }
-  return count;
+  return largestRemainders(total, exact, 1);
 }
 
 ProgramShape islandShape(const ProgramShape& run, const IslandProfile& profile) {
