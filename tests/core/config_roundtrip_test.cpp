@@ -61,7 +61,7 @@ json fullConfig() {
                "structured": {"max_degree": 3, "rational": false, "exp2": false,
                               "sqrt_inputs": false, "max_rows": 1000, "share": 0.5},
                "stages": {"islands": 2, "population": 20, "retarget": 7, "max_length": 12,
-                          "constants": 4, "modes": ["mul"], "bases": 3}},
+                          "constants": 4, "modes": ["mul", "inside"], "bases": 3}},
     "eval": {"block_size": 64},
     "output": {"front_json": "f.json", "front_csv": "f.csv", "progress_interval_s": 2,
                "progress_cost_levels": [3, 9], "checkpoint": "c.json",

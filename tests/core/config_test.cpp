@@ -90,6 +90,11 @@ TEST(Config, OutOfRangeNamesItsPath) {
   j = minimal();
   j["search"] = {{"generations", 0}};
   EXPECT_NE(errorOf(j).find("at least one budget"), std::string::npos);
+  j = minimal();
+  j["search"] = {{"stages", {{"modes", {"add", "outside"}}}}};
+  EXPECT_NE(errorOf(j).find("/search/stages/modes/1: 'outside' is not one of add, mul, inside"),
+            std::string::npos)
+      << errorOf(j);
 }
 
 TEST(Config, LmMetricSwitch) {

@@ -510,18 +510,21 @@ void parseStages(const nlohmann::json& j, StageConfig& c) {
   o.integer("bases", c.bases, 1, 1024);
   if (o.has("modes")) {
     const auto& v = o.at("modes");
-    if (!v.is_array() || v.empty()) fail(o.path("modes"), "must be a non-empty array of add, mul");
+    if (!v.is_array() || v.empty())
+      fail(o.path("modes"), "must be a non-empty array of add, mul, inside");
     c.modes.clear();
     for (size_t i = 0; i < v.size(); ++i) {
       const std::string p = jsonPath(o.path("modes"), i);
-      if (!v[i].is_string()) fail(p, "must be add or mul");
+      if (!v[i].is_string()) fail(p, "must be add, mul or inside");
       const std::string m = v[i].get<std::string>();
       if (m == "add")
         c.modes.push_back(StageMode::Add);
       else if (m == "mul")
         c.modes.push_back(StageMode::Mul);
+      else if (m == "inside")
+        c.modes.push_back(StageMode::Inside);
       else
-        fail(p, "'" + m + "' is not one of add, mul");
+        fail(p, "'" + m + "' is not one of add, mul, inside");
     }
   }
   o.finish();

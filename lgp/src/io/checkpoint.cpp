@@ -155,6 +155,7 @@ nlohmann::json checkpointToJson(const Search& s) {
     nlohmann::json j = islandToJson(st->isl);
     j["base"] = st->base.code.empty() ? nlohmann::json(nullptr) : toJson(st->base);
     j["mode"] = std::string(toString(st->mode));
+    if (st->mode == StageMode::Inside) j["input"] = st->input;
     j["base_error"] = st->base_error;
     j["since"] = st->since;
     j["picks"] = st->picks;
@@ -293,9 +294,18 @@ Status restoreFromCheckpoint(Search& s, const nlohmann::json& st, bool take_coun
           if (!base) return Status::error("checkpoint: " + at + " base: " + base.error());
           stage->base = std::move(*base);
           const std::string mode = j.at("mode").get<std::string>();
-          if (mode != "add" && mode != "mul")
-            return Status::error("checkpoint: " + at + ": mode must be add or mul");
-          stage->mode = mode == "mul" ? StageMode::Mul : StageMode::Add;
+          if (mode != "add" && mode != "mul" && mode != "inside")
+            return Status::error("checkpoint: " + at + ": mode must be add, mul or inside");
+          stage->mode = mode == "mul"      ? StageMode::Mul
+                        : mode == "inside" ? StageMode::Inside
+                                           : StageMode::Add;
+          if (stage->mode == StageMode::Inside) {
+            const int input = j.value("input", -1);
+            if (input < 0 || input >= s.shape_.num_inputs)
+              return Status::error("checkpoint: " + at + ": input must be an input index, 0 to " +
+                                   std::to_string(s.shape_.num_inputs - 1));
+            stage->input = input;
+          }
           stage->base_error = j.at("base_error").get<double>();
           s.bindStage(*stage);
           if (auto c = islandFromJson(j, stage->shape, s.stageScorer(*stage, 0), at, stage->isl);

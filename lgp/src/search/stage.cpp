@@ -1,8 +1,11 @@
 // Residual tables and composite programs of residual stages (stage.hpp).
 #include "lgp/search/stage.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+
+#include "lgp/eval/interpreter.hpp"
 
 namespace lgp {
 
@@ -12,18 +15,27 @@ std::string_view toString(StageMode m) {
       return "add";
     case StageMode::Mul:
       return "mul";
+    case StageMode::Inside:
+      return "inside";
   }
   return "add";
 }
 
 Table residualTable(const Table& t, const std::vector<std::vector<float>>& f,
-                    const std::vector<TargetTransform>& transforms, StageMode mode) {
+                    const std::vector<TargetTransform>& transforms, StageMode mode, int input,
+                    const std::vector<double>& slope) {
   Table r;
   r.input_names = t.input_names;
   r.inputs = t.inputs;
   r.output_names = t.output_names;
   const size_t rows = t.rows();
   r.weights = t.weights.empty() ? std::vector<double>(rows, 1.0) : t.weights;
+  double span = 0;
+  if (mode == StageMode::Inside && input >= 0 && static_cast<size_t>(input) < t.numInputs() &&
+      rows > 0) {
+    const auto [lo, hi] = std::minmax_element(t.inputs[input].begin(), t.inputs[input].end());
+    span = *hi - *lo;
+  }
   for (size_t o = 0; o < t.numOutputs(); ++o) {
     r.input_names.push_back("f_" + t.output_names[o]);
     std::vector<double> col(rows), res(rows);
@@ -46,6 +58,20 @@ Table residualTable(const Table& t, const std::vector<std::vector<float>>& f,
             r.weights[i] = 0;
           }
           break;
+        case StageMode::Inside: {
+          // (y - f(x + g))^2 ~ f'^2 ((y - f) / f' - g)^2: a Gauss-Newton step in x_input. A
+          // step past the input's span is no linearisation of anything: such a row is out.
+          const double s = i < slope.size() ? slope[i] : 0.0;
+          const double step = s != 0 ? (y - col[i]) / s : INFINITY;
+          if (std::isfinite(step) && std::fabs(step) <= span) {
+            res[i] = step;
+            r.weights[i] *= s * s;
+          } else {
+            res[i] = 0;
+            r.weights[i] = 0;
+          }
+          break;
+        }
       }
       if (!std::isfinite(res[i])) res[i] = 0, r.weights[i] = 0;
     }
@@ -55,13 +81,41 @@ Table residualTable(const Table& t, const std::vector<std::vector<float>>& f,
   return r;
 }
 
-Program composeStage(const Program& base, const Program& correction, int num_inputs,
-                     StageMode mode) {
+std::vector<double> inputSlope(const Program& base, const Table& t, int input, int block_size) {
+  const size_t rows = t.rows();
+  std::vector<double> slope(rows, 0.0);
+  if (input < 0 || static_cast<size_t>(input) >= t.numInputs() || rows == 0) return slope;
+  const auto& x = t.inputs[input];
+  const auto [lo_it, hi_it] = std::minmax_element(x.begin(), x.end());
+  const double lo = *lo_it, hi = *hi_it;
+  const double h = 1e-3 * (hi > lo ? hi - lo : 1.0);
+  Table up = t, down = t;
+  up.outputs.clear();
+  down.outputs.clear();
+  for (size_t r = 0; r < rows; ++r) {
+    up.inputs[input][r] = std::min(x[r] + h, hi);
+    down.inputs[input][r] = std::max(x[r] - h, lo);
+  }
+  Interpreter interp(block_size);
+  const auto fu = interp.evaluate(base, Dataset(up, block_size));
+  const auto fd = interp.evaluate(base, Dataset(down, block_size));
+  for (size_t r = 0; r < rows; ++r) {
+    const double dx = up.inputs[input][r] - down.inputs[input][r];
+    const double v = (static_cast<double>(fu[0][r]) - fd[0][r]) / dx;
+    slope[r] = dx > 0 && std::isfinite(v) ? v : 0.0;
+  }
+  return slope;
+}
+
+Program composeStage(const Program& base, const Program& correction, int num_inputs, StageMode mode,
+                     int input) {
   Program c;
   // Register operands are bytes: a composite past 255 opcodes cannot be written (the caller
   // refuses the empty program, as fitToShape would refuse the long one).
-  if (base.code.size() + correction.code.size() + base.outputs.size() > 255 ||
-      base.outputs.size() != correction.outputs.size())
+  const size_t tail = mode == StageMode::Inside ? base.code.size() + 1 : base.outputs.size();
+  if (base.code.size() + correction.code.size() + tail > 255 ||
+      base.outputs.size() != correction.outputs.size() ||
+      (mode == StageMode::Inside && (base.outputs.size() != 1 || input < 0 || input >= num_inputs)))
     return c;
   std::map<int, int> base_const, corr_const;
   auto constant = [&](std::map<int, int>& m, const Program& from, int slot) {
@@ -90,6 +144,30 @@ Program composeStage(const Program& base, const Program& correction, int num_inp
         out.args[a] = regOperand(base.outputs[x.index - num_inputs]);
     }
     c.code.push_back(out);
+  }
+  if (mode == StageMode::Inside) {
+    Instr arg;
+    arg.op = Op::Add;
+    arg.args[0] = inputOperand(input);
+    arg.args[1] = regOperand(correction.outputs[0] + offset);
+    c.code.push_back(arg);
+    const int at = static_cast<int>(c.code.size()) - 1;
+    const int again = at + 1;
+    for (const Instr& in : base.code) {
+      Instr out = in;
+      for (int a = 0; a < arity(in.op); ++a) {
+        const Operand& x = in.args[a];
+        if (x.kind == OperandKind::Const)
+          out.args[a] = constOperand(constant(base_const, base, x.index));
+        else if (x.kind == OperandKind::Reg)
+          out.args[a] = regOperand(x.index + again);
+        else if (x.index == input)
+          out.args[a] = regOperand(at);
+      }
+      c.code.push_back(out);
+    }
+    c.outputs.push_back(static_cast<uint8_t>(base.outputs[0] + again));
+    return pruneIntrons(c);
   }
   for (size_t o = 0; o < base.outputs.size(); ++o) {
     Instr join;

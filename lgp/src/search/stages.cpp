@@ -30,13 +30,16 @@ nlohmann::json Search::stagesInfo() const {
     nlohmann::json s = {{"mode", std::string(toString(st->mode))},
                         {"picks", st->picks},
                         {"composites", st->composites}};
+    if (st->mode == StageMode::Inside) s["input"] = table_.input_names[st->input];
     if (!st->base.code.empty()) {
       s["base_error"] = st->base_error;
       s["base_opcodes"] = st->base.code.size();
-      // The best correction of this base so far, on the composite's scale.
+      // The best correction of this base so far, on the composite's scale (inside: the
+      // linearised error, not the composite's).
       double best = kInf;
       for (const auto& ind : st->isl.pop) best = std::min(best, ind.obj.error * st->error_scale);
-      if (std::isfinite(best)) s["best_composite_error"] = best;
+      if (std::isfinite(best))
+        s[st->mode == StageMode::Inside ? "best_linearised_error" : "best_composite_error"] = best;
     }
     a.push_back(std::move(s));
   }
@@ -58,7 +61,10 @@ void Search::bindStage(Stage& st) {
   const int k = static_cast<int>(table_.numOutputs());
   Interpreter interp(cfg_.eval.block_size);
   const auto f = interp.evaluate(st.base, ds_);
-  st.table = residualTable(table_, f, err_cfg_.transforms, st.mode);
+  const std::vector<double> slope =
+      st.mode == StageMode::Inside ? inputSlope(st.base, table_, st.input, cfg_.eval.block_size)
+                                   : std::vector<double>{};
+  st.table = residualTable(table_, f, err_cfg_.transforms, st.mode, st.input, slope);
   st.ds = std::make_unique<Dataset>(st.table, cfg_.eval.block_size);
   // Program space: the residual is of what programs compute (T(y)), so no transform; one
   // gene (the correction's own a*g + b under linear scaling).
@@ -77,9 +83,10 @@ void Search::bindStage(Stage& st) {
   st.shape.max_length = sc.max_length;
   st.shape.num_constants = sc.constants;
   st.shape.output_mode = OutputMode::Last;
-  // mul: the residual's weights are w f^2, and a weighted RMSE divides by their sum.
+  // mul (inside): the residual's weights are w f^2 (w f'^2), and a weighted RMSE divides by
+  // their sum.
   st.error_scale = 1;
-  if (st.mode == StageMode::Mul) {
+  if (st.mode != StageMode::Add) {
     double main = 0, stage = 0;
     for (size_t r = 0; r < table_.rows(); ++r) {
       main += table_.weights.empty() ? 1.0 : table_.weights[r];
@@ -116,12 +123,17 @@ bool Search::pickBase(int k, Stage& st) {
   });
   const size_t n = std::min(cands.size(), static_cast<size_t>(sc.bases));
   const size_t pick = (static_cast<size_t>(st.picks) * stages_.size() + static_cast<size_t>(k)) % n;
-  // A multiplicative correction is the composite's squared error only for RMSE of one
-  // output without channels; elsewhere the stage corrects additively.
+  // A multiplicative (inside) correction is the composite's (linearised) squared error only for
+  // RMSE of one output without channels; elsewhere the stage corrects additively. Inside picks
+  // take the inputs in turn.
   StageMode mode = sc.modes[static_cast<size_t>(st.picks) % sc.modes.size()];
-  if (mode == StageMode::Mul &&
+  if (mode != StageMode::Add &&
       (outputs != 1 || !err_cfg_.channels.empty() || err_cfg_.metric != ErrorMetric::Rmse))
     mode = StageMode::Add;
+  st.input = mode == StageMode::Inside
+                 ? static_cast<int>((static_cast<size_t>(st.picks) / sc.modes.size()) %
+                                    static_cast<size_t>(shape_.num_inputs))
+                 : 0;
   st.base = std::move(cands[pick].final_program);
   st.base_error = cands[pick].error;
   st.mode = mode;
@@ -175,13 +187,14 @@ void Search::offerComposites(Stage& st, const std::vector<Individual>& inds) {
       gs.error(g);
       g = applyLinearScaling(g, gs.scales(), 1);
     }
-    const Program c = composeStage(st.base, g, shape_.num_inputs, st.mode);
+    const Program c = composeStage(st.base, g, shape_.num_inputs, st.mode, st.input);
     if (c.code.empty()) continue;
-    // What the composite would be: the stage's error is its error (add; mul rescaled), its
-    // cost and discontinuity are the composite's own. Only what the archive would take is
-    // built in the run's shape and scored on the table.
+    // What the composite would be: the stage's error is its error (add; mul rescaled; inside
+    // only a linearisation, so not a bound: its cost alone may rule it out), its cost and
+    // discontinuity are the composite's own. Only what the archive would take is built in the
+    // run's shape and scored on the table.
     Objectives predicted;
-    predicted.error = ind.obj.error * st.error_scale;
+    predicted.error = st.mode == StageMode::Inside ? 0.0 : ind.obj.error * st.error_scale;
     predicted.cost = cost_.programCost(c) + transform_cost_;
     predicted.discontinuity = disc_.programDiscontinuity(c, effectiveIndices(c));
     if (archive_.rejects(predicted)) continue;

@@ -233,7 +233,8 @@ struct StageConfig {
   int retarget = 40;     // generations between picks of a new base
   int max_length = 24;   // a correction's opcodes
   int constants = 8;     // and constant slots
-  std::vector<StageMode> modes = {StageMode::Add, StageMode::Mul};  // in turn, pick by pick
+  // In turn, pick by pick: add (y - f), mul (y / f), inside (f(x_i + g), inputs in turn).
+  std::vector<StageMode> modes = {StageMode::Add, StageMode::Mul};
   int bases = 8;  // a pick rotates over this many of the most accurate members with room
 };
 

@@ -251,6 +251,7 @@ class Search {
   struct Stage {
     Program base;  // the base's final program; empty until the first pick
     StageMode mode = StageMode::Add;
+    int input = 0;  // inside: the input whose argument the correction corrects
     double base_error = 0;
     Table table;
     std::unique_ptr<Dataset> ds;
