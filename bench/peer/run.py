@@ -20,6 +20,7 @@ bench/peer/README.md gives the protocol and says how each figure is computed.
 import argparse
 import copy
 import csv
+import glob
 import hashlib
 import json
 import math
@@ -682,6 +683,49 @@ def score_lgp(args, front_path, inputs, data_dir, d, commands):
                      "search_s": p.get("elapsed_s"), "stop_reason": p.get("stop_reason")}
 
 
+def snapshot_files(d):
+    """lgp run --front-every's fronts in run folder d, in time order."""
+    return sorted(glob.glob(os.path.join(d, "lgp-front.at*s.json")))
+
+
+def score_snapshots(args, d, inputs, data_dir, commands):
+    """Every snapshot front measured and scored on the held-out rows: per snapshot its search
+    time and the best held-out RMS at ISA <= k (lgp score measures each formula's ISA)."""
+    out = []
+    for i, path in enumerate(snapshot_files(d)):
+        with open(path) as f:
+            front = json.load(f)
+        formulas = [m["formula"] for m in front["members"]]
+        cmds = []
+        held = lgp_score_each(args.lgp, os.path.join(data_dir, "heldout.csv"), inputs, formulas,
+                              os.path.join(d, "snapshot-formulas.txt"), True, cmds)
+        if i == 0:
+            commands.append("# every snapshot (%s ...): %s" % (os.path.basename(path), cmds[0]))
+        members = [{"isa": isa_of(h.get("cost_measured")),
+                    "heldout_rms": metric(h, "float32", "rmse"),
+                    "heldout_max": metric(h, "float32", "max_abs")}
+                   for h in held if not h.get("failed")]
+        out.append({"file": os.path.basename(path), "search_s": front["progress"]["elapsed_s"],
+                    "rms": {k: v["rms"] for k, v in per_k(members).items()}})
+    return out
+
+
+def time_to_operon(snaps, final_k, final_s, op_k):
+    """Per k, the first search time (a snapshot's, or the final front's) at which lgp's best
+    held-out RMS at ISA <= k is at or below Operon's final figure; None when it never is (or
+    there were no snapshots)."""
+    if not snaps:
+        return None
+    points = [(s["search_s"], s["rms"]) for s in snaps]
+    points.append((final_s, {k: v["rms"] for k, v in final_k.items()}))
+    out = {}
+    for k in final_k:
+        target = op_k[k]["rms"]
+        out[k] = next((t for t, rms in points if finite(target) and finite(rms.get(k))
+                       and rms[k] <= target), None)
+    return out
+
+
 def usable(m):
     """Measured, with finite held-out figures. An Operon member that fails the translation check
     stays: its figures are those of the translated formula, a shader with that cost and error
@@ -720,7 +764,9 @@ def run_one(args, run, seed, data_dir, data):
         json.dump(lgp_config(inputs, args.budget, seed, args.config_patch), f, indent=2)
         f.write("\n")
     jobs = [
-        {"argv": [args.lgp, "run", "lgp.json"], "env": {}, "cwd": d,
+        {"argv": [args.lgp, "run", "lgp.json"] + (
+            ["--front-every", "%g" % args.snapshots] if args.snapshots else []), "env": {},
+         "cwd": d,
          "stdout": os.path.join(d, "lgp.out"), "stderr": os.path.join(d, "lgp.err")},
         {"argv": operon_args(args.operon, inputs, data["train_rows"], data["heldout_rows"],
                              args.budget, seed),
@@ -741,7 +787,8 @@ def run_one(args, run, seed, data_dir, data):
         loadavg = saved.get("loadavg")
         commands = saved.get("commands", commands)
     else:
-        for name in ("lgp-front.json", "operon-front.csv", "engines.json"):
+        for name in ["lgp-front.json", "operon-front.csv", "engines.json"] + [
+                os.path.basename(p) for p in snapshot_files(d)]:
             if os.path.exists(os.path.join(d, name)):
                 os.remove(os.path.join(d, name))
         saved = {}
@@ -796,6 +843,7 @@ def run_one(args, run, seed, data_dir, data):
         score_operon(args, op_members, inputs, data_dir, d, train_rows, score_cmds)
         op_log = operon_log(jobs[1]["stdout"])
     lgp_k, op_k = per_k(lgp_members), per_k(op_members)
+    snaps = score_snapshots(args, d, inputs, data_dir, score_cmds)
     table = {k: {"lgp_rms": lgp_k[k]["rms"], "operon_rms": op_k[k]["rms"],
                  "rms_ratio": ratio(lgp_k[k]["rms"], op_k[k]["rms"]),
                  "lgp_max": lgp_k[k]["max"], "operon_max": op_k[k]["max"],
@@ -806,6 +854,8 @@ def run_one(args, run, seed, data_dir, data):
         "table": run["name"], "title": run["title"], "seed": seed, "dir": d, "loadavg": loadavg,
         "commands": commands, "scoring_commands": score_cmds, "per_k": table,
         "lgp": dict(lgp_prog, wall_s=lwall, cpu_s=lcpu, killed=lkill, members=lgp_members),
+        "snapshots": snaps,
+        "time_to_operon": time_to_operon(snaps, lgp_k, lgp_prog.get("search_s"), op_k),
         "operon": dict(op_log, wall_s=owall, cpu_s=ocpu, killed=okill,
                        members=op_members, dropped_not_finite=dropped),
     }
@@ -884,6 +934,22 @@ def report(meta, data_info, results):
     ratio_table(results, "rms", L)
     L += ["", "## Best held-out max |error| at ISA <= k, lgp / Operon", ""]
     ratio_table(results, "max", L)
+    timed = [x for x in results if x.get("time_to_operon")]
+    if timed:
+        L += ["", "## Time to Operon's held-out RMS at ISA <= k", "",
+              "lgp's search seconds until its best held-out RMS at ISA <= k first reached "
+              "Operon's after Operon's whole budget (lgp's front written every %g s; `-`: not "
+              "within lgp's budget; n/a: Operon has no member at or below k)." %
+              meta["snapshots"], "",
+              "| table | seed | " + " | ".join(str(k) for k in KS) + " |",
+              "|---|---|" + "---|" * len(KS)]
+        for x in timed:
+            cells = []
+            for k in KS:
+                t = x["time_to_operon"][str(k)]
+                cells.append("n/a" if not finite(x["per_k"][str(k)]["operon_rms"]) else
+                             "-" if t is None else "%.0f" % t)
+            L.append("| %s | %d | %s |" % (x["title"], x["seed"], " | ".join(cells)))
     busy = [(x["title"], x["seed"], e, r["cpu_s"] / r["wall_s"]) for x in results
             for e, r in (("lgp", x["lgp"]), ("Operon", x["operon"]))
             if r["cpu_s"] < 0.8 * r["wall_s"]]
@@ -1008,6 +1074,10 @@ def parse_args(argv=None):
                     help="take Operon's fronts from an earlier --out DIR of the same tables, "
                          "seeds and budget, and run only lgp (to compare lgp configurations "
                          "against one set of Operon runs)")
+    ap.add_argument("--snapshots", type=float, default=0, metavar="S",
+                    help="lgp writes its front every S seconds (lgp run --front-every); each "
+                         "snapshot is measured and scored, and the report gives per k the time "
+                         "lgp took to reach Operon's held-out RMS")
     ap.add_argument("--jobs", type=int, default=1,
                     help="runs at once, one core each (needs --operon-from: with Operon every "
                          "run already takes two cores)")
@@ -1028,6 +1098,8 @@ def parse_args(argv=None):
             ap.error("--config-json: %s" % e)
         if not isinstance(args.config_patch, dict):
             ap.error("--config-json: must be a JSON object")
+    if args.snapshots < 0 or args.snapshots != args.snapshots:
+        ap.error("--snapshots must be a number of seconds >= 0")
     if args.quick:
         args.budget = 10.0
     if args.budget <= 0:
@@ -1127,6 +1199,7 @@ def main():
             "budget": args.budget, "seeds": args.seed_list,
             "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "lgp_config_json": args.config_patch, "ks": list(KS), "family": FAMILY,
+            "snapshots": args.snapshots,
             "check_tolerance": {"rel": CHECK_REL, "float32_ulps_of_max_abs_y": CHECK_ULPS},
             "command": shlex.join([sys.executable] + sys.argv)}
     print("CPU: %s; load average %s" % (meta["cpu"], meta["loadavg"]), flush=True)

@@ -226,6 +226,27 @@ class Tables(unittest.TestCase):
         self.assertEqual(run.ratio(0.5, 0.25), 2.0)
         self.assertIsNone(run.ratio(None, 0.25))
 
+    def test_time_to_operon(self):
+        # Operon's final figures at k = 8 and 64 (none at or below 10 ... 50 for this test).
+        ks = [str(k) for k in run.KS]
+        op = {k: {"rms": None} for k in ks}
+        op["8"]["rms"], op["64"]["rms"] = 0.02, 0.001
+        snaps = [{"search_s": 30.2, "rms": {"8": 0.03, "64": 0.004}},
+                 {"search_s": 60.1, "rms": {"8": 0.02, "64": 0.002}}]
+        final = {k: {"rms": None} for k in ks}
+        final["8"]["rms"], final["64"]["rms"] = 0.01, 0.0015
+        t = run.time_to_operon(snaps, final, 300.0, op)
+        self.assertEqual(t["8"], 60.1)  # reached exactly at the second snapshot
+        self.assertIsNone(t["64"])  # never: 0.0015 > 0.001 at the end
+        self.assertIsNone(t["10"])  # Operon has no member there
+        final["64"]["rms"] = 0.0009
+        self.assertEqual(run.time_to_operon(snaps, final, 300.0, op)["64"], 300.0)
+        self.assertIsNone(run.time_to_operon([], final, 300.0, op))
+        args, _ = run.parse_args(["--out", "x", "--snapshots", "30"])
+        self.assertEqual(args.snapshots, 30)
+        with self.assertRaises(SystemExit):
+            run.parse_args(["--out", "x", "--snapshots", "-1"])
+
     def test_check(self):
         self.assertTrue(run.check_ok(1.0005e-3, 1e-3, 1.0))
         self.assertFalse(run.check_ok(1.002e-3, 1e-3, 1.0))

@@ -61,7 +61,11 @@ cxxopts::Options runOptions(const char* argv0) {
       "checkpoint-interval", "seconds between checkpoints (output.checkpoint_interval_s)",
       cxxopts::value<double>())("resume", "start from the checkpoint file")(
       "status", "write the progress counters to this JSON file at every progress tick",
-      cxxopts::value<std::string>())("q,quiet", "no progress output")("h,help", "this help");
+      cxxopts::value<std::string>())(
+      "front-every",
+      "every this many seconds also write the front so far (no references, no measured costs) "
+      "beside the front JSON as <name>.at<seconds>s.json: accuracy over time (one-process runs)",
+      cxxopts::value<double>())("q,quiet", "no progress output")("h,help", "this help");
   opts.parse_positional({"config"});
   return opts;
 }
@@ -203,8 +207,9 @@ class ProgressReport {
 // What a run asks of its display and files beyond the config.
 struct RunFlags {
   bool resume = false;
-  bool quiet = false;  // --quiet, or not rank 0
-  bool tty = false;    // stderr is a terminal: progress rewrites one line
+  double front_every_s = 0;  // --front-every: 0 = no snapshots
+  bool quiet = false;        // --quiet, or not rank 0
+  bool tty = false;          // stderr is a terminal: progress rewrites one line
 };
 
 // The search of one process with one step (pipeline step 3): restored from the checkpoint
@@ -237,6 +242,16 @@ lgp::Expected<std::unique_ptr<lgp::Search>> buildSearch(lgp::RunConfig& cfg, lgp
   return search;
 }
 
+// --front-every's file for the snapshot due at `t` seconds: front.json -> front.at0030s.json.
+std::string snapshotPath(const std::string& front_json, double t) {
+  std::string stem = front_json;
+  if (stem.size() > 5 && stem.compare(stem.size() - 5, 5, ".json") == 0)
+    stem.resize(stem.size() - 5);
+  char b[32];
+  std::snprintf(b, sizeof(b), ".at%04.0fs.json", t);
+  return stem + b;
+}
+
 // Search::run with checkpoints: every checkpoint_interval_s and once at the end. Returns the
 // error of the last checkpoint write ("" when it succeeded): a run that ends with its
 // checkpoint stale exits 1 after writing its front.
@@ -252,11 +267,22 @@ std::string runSearch(lgp::Search& search, const lgp::RunConfig& cfg, const RunF
     ck_failed = !st;
     checkpoint_error = st ? "" : st.message();
   };
+  // Snapshots of the front (--front-every) by wall time since the run began, set-up included.
+  const auto began = Clock::now();
+  double next_snapshot = flags.front_every_s;
+  auto snapshot = [&]() {
+    if (flags.front_every_s <= 0 || since(began) < next_snapshot) return;
+    const std::string path = snapshotPath(cfg.output.front_json, next_snapshot);
+    if (auto st = lgp::writeFrontJson(lgp::cli::frontJson(search, nullptr), path); !st)
+      std::fprintf(stderr, "\nwarning: %s\n", st.message().c_str());
+    while (next_snapshot <= since(began)) next_snapshot += flags.front_every_s;
+  };
   auto last_progress = Clock::now(), last_checkpoint = Clock::now();
   if (!flags.resume) search.initialize();
   progress(search.progress());
   while (!search.done()) {
     search.step();
+    snapshot();
     if (since(last_progress) >= cfg.output.progress_interval_s) {
       progress(search.progress());
       last_progress = Clock::now();
@@ -389,6 +415,13 @@ int runMain(int argc, char** argv) {
   applyOverrides(args, *cfg);
   RunFlags flags;
   flags.resume = args.count("resume") > 0;
+  if (args.count("front-every")) {
+    flags.front_every_s = args["front-every"].as<double>();
+    if (!(flags.front_every_s > 0))
+      return world.fail("--front-every: must be a number of seconds > 0", 2);
+    if (world.distributed() || cfg->search.multi_output.mode == lgp::MultiOutputMode::TwoStep)
+      return world.fail("--front-every: only for a one-process, one-step run", 2);
+  }
   if (auto st = checkRunConfig(*cfg, flags.resume, world.distributed()); !st)
     return world.fail(st.message(), 2);
   auto table = readTable(*cfg, world);

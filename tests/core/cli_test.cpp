@@ -203,6 +203,33 @@ TEST_F(Cli, CheckpointResumeAndStatusFile) {
   EXPECT_NE(r.out.find("made with a different config"), std::string::npos) << r.out;
 }
 
+TEST_F(Cli, FrontEveryWritesTheFrontSoFar) {
+  // A 2.5 s run with a snapshot every second: at0001s and at0002s, fronts of their moment.
+  auto j = base(0);
+  j["search"]["wall_time_s"] = 2.5;
+  const std::string cfg = config(j).string();
+  auto r = sh(lgp() + " run " + cfg + " -q --front-every 1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  double last = 0;
+  for (const char* name : {"front.at0001s.json", "front.at0002s.json"}) {
+    ASSERT_TRUE(fs::exists(dir / name)) << name;
+    std::ifstream in(dir / name);
+    const auto f = nlohmann::json::parse(in);
+    EXPECT_EQ(f["format"], "lgp-front/1");
+    EXPECT_GT(f["members"].size(), 0u);
+    const double t = f["progress"]["elapsed_s"].get<double>();
+    EXPECT_GT(t, last) << name;
+    last = t;
+  }
+  EXPECT_FALSE(fs::exists(dir / "front.at0003s.json"));
+  std::ifstream fin(dir / "front.json");
+  EXPECT_GE(nlohmann::json::parse(fin)["progress"]["elapsed_s"].get<double>(), last);
+  r = sh(lgp() + " run " + cfg + " -q --front-every 0");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("--front-every: must be a number of seconds > 0"), std::string::npos)
+      << r.out;
+}
+
 }  // namespace
 
 // A full disk (/dev/full: every write fails with ENOSPC) is an error with a message and a
