@@ -8,12 +8,16 @@ Prints markdown: per table and seed, every arm's best held-out RMS (and max |err
 ISA <= k, with Operon's figure from each arm's own run beside it (Operon is time-limited, so its
 figures differ a little between runs of the same seed); then, per arm, the geometric mean over
 the (table, seed) runs that both have of arm / baseline at each k (below 1: the arm is better)
-and how many of the arm's per-k figures are at or below Operon's of the same run.
+and how many of the arm's per-k figures are at or below Operon's of the same run; then, per arm
+and table, lgp / Operon's median and worst over seeds (the protocol's figures), and where runs
+were made with --snapshots, the median and worst over seeds of the time lgp took to reach
+Operon's held-out RMS.
 """
 import argparse
 import json
 import math
 import os
+import statistics
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -88,6 +92,48 @@ def geomean_interval(logs):
     return math.exp(m - h), math.exp(m + h)
 
 
+def over_seeds(values, worst):
+    """Median and worst of per-seed figures ("-": no figure); None counts as never (+inf)."""
+    v = [math.inf if x is None else x for x in values]
+    if not v:
+        return "-", "-"
+
+    def f(x):
+        return "-" if math.isinf(x) else ("%.2f" if worst == "ratio" else "%.0f") % x
+    return f(statistics.median(v)), f(max(v))
+
+
+def seeds_table(arms):
+    """Per arm and table: lgp / Operon RMS, then (with snapshots) the seconds to Operon's RMS,
+    median | worst over the table's seeds at each k."""
+    L = ["## Over seeds: median | worst, per arm and table", "",
+         "lgp / Operon held-out RMS at ISA <= k (below 1: lgp better); where the runs wrote "
+         "snapshots, lgp's search seconds to reach Operon's RMS (`-`: not within its budget).", "",
+         "| arm | table | figure | seeds | " + k_columns() + " |",
+         "|---|---|---|---|" + "---|" * len(KS)]
+    for name, runs in arms:
+        for table in sorted({t for t, _ in runs}):
+            rs = [r for (t, _), r in sorted(runs.items()) if t == table]
+            cells = []
+            for k in KS:
+                m, w = over_seeds([fig(r, k, "rms_ratio") for r in rs
+                                   if fig(r, k, "rms_ratio") is not None], "ratio")
+                cells.append("%s \\| %s" % (m, w))
+            L.append("| %s | %s | RMS ratio | %d | %s |" % (name, table, len(rs),
+                                                               " | ".join(cells)))
+            timed = [r for r in rs if r.get("time_to_operon")]
+            if timed:
+                cells = []
+                for k in KS:
+                    vals = [r["time_to_operon"].get(str(k)) for r in timed
+                            if fig(r, k, "operon_rms") is not None]
+                    m, w = over_seeds(vals, "seconds")
+                    cells.append("%s \\| %s" % (m, w) if vals else "n/a")
+                L.append("| %s | %s | seconds to Operon | %d | %s |" % (
+                    name, table, len(timed), " | ".join(cells)))
+    return L + [""]
+
+
 def report(arms):
     L = []
     keys = sorted({ts for _, runs in arms for ts in runs})
@@ -136,6 +182,7 @@ def report(arms):
             L += ["90 % interval of that geometric mean (Student's t on the log ratios; a "
                   "difference is resolved only where the interval excludes 1):", "",
                   "| arm | " + k_columns() + " |", "|---|" + "---|" * len(KS)] + rows + [""]
+    L += seeds_table(arms)
     return "\n".join(L)
 
 

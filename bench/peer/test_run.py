@@ -332,6 +332,17 @@ class CompareArms(unittest.TestCase):
         self.assertIn("| arm | 2 | 1.00 | - |", text)
         self.assertIn("| 1 of 3 |", text)  # a at 8 is below Operon; b and c are not
 
+    def test_median_and_worst_over_seeds(self):
+        def run(seed, ratio, t):
+            return {"table": "a", "seed": seed, "time_to_operon": {"8": t},
+                    "per_k": {"8": {"lgp_rms": 1, "operon_rms": 1, "rms_ratio": ratio}}}
+        arm = {("a", 1): run(1, 0.5, 40.0), ("a", 2): run(2, 2.0, None),
+               ("a", 3): run(3, 0.8, 100.0)}
+        text = "\n".join(compare.seeds_table([("x", arm)]))
+        self.assertIn("| x | a | RMS ratio | 3 | 0.80 \\| 2.00 |", text)
+        # seed 2 never reached Operon's figure: the worst is "-", the median 100 s
+        self.assertIn("| x | a | seconds to Operon | 3 | 100 \\| - |", text)
+
     def test_interval_of_the_geometric_mean(self):
         # log ratios 0, ln 2, ln 4: mean ln 2, sd ln 2, t(2 df) = 2.920, half width 2.920 ln2/sqrt3
         logs = [0.0, math.log(2), math.log(4)]
