@@ -44,3 +44,28 @@ def test_pipeline_and_grid_search():
     model = make_pipeline(StandardScaler(), lgp.Regressor(generations=60, random_state=2))
     scores = cross_val_score(model, X, y, cv=3)
     assert np.all(scores > 0.9), scores
+
+
+def _feynman_bench():
+    import importlib.util
+    import os
+    path = os.path.join(os.path.dirname(__file__), "..", "..", "bench", "recovery",
+                        "feynman_regressor.py")
+    spec = importlib.util.spec_from_file_location("feynman_regressor", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_feynman_bench_equations_and_exact_recovery():
+    fr = _feynman_bench()
+    rng = np.random.default_rng(3)
+    for name, (_, spec, f) in fr.EQUATIONS.items():
+        y = f(*fr.draw(spec, 500, rng).T)
+        assert np.all(np.isfinite(y)) and np.ptp(y) > 0, name
+    y = rng.uniform(1, 2, 100)
+    assert fr.r2(y, y) == 1.0
+    assert fr.r2(y, y + 1e-5 * rng.standard_normal(100)) < fr.EXACT
+    # The benchmark's own run on the easiest equation: mu * Nn, found exactly in 3 s.
+    r = fr.run_one(lgp, "I.12.1", 1, 3.0)
+    assert r["exact"] and r["near"], r
