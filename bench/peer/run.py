@@ -938,17 +938,19 @@ def report(meta, data_info, results):
     if timed:
         L += ["", "## Time to Operon's held-out RMS at ISA <= k", "",
               "lgp's search seconds until its best held-out RMS at ISA <= k first reached "
-              "Operon's after Operon's whole budget (lgp's front written every %g s; `-`: not "
-              "within lgp's budget; n/a: Operon has no member at or below k)." %
+              "Operon's after Operon's whole budget (lgp's front written every %g s, so `<= t` "
+              "is by the first snapshot; `-`: not within lgp's budget; n/a: Operon has no "
+              "member at or below k)." %
               meta["snapshots"], "",
               "| table | seed | " + " | ".join(str(k) for k in KS) + " |",
               "|---|---|" + "---|" * len(KS)]
         for x in timed:
             cells = []
+            first = x["snapshots"][0]["search_s"]
             for k in KS:
                 t = x["time_to_operon"][str(k)]
                 cells.append("n/a" if not finite(x["per_k"][str(k)]["operon_rms"]) else
-                             "-" if t is None else "%.0f" % t)
+                             "-" if t is None else ("<= %.0f" if t == first else "%.0f") % t)
             L.append("| %s | %d | %s |" % (x["title"], x["seed"], " | ".join(cells)))
     busy = [(x["title"], x["seed"], e, r["cpu_s"] / r["wall_s"]) for x in results
             for e, r in (("lgp", x["lgp"]), ("Operon", x["operon"]))
