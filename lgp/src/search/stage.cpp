@@ -124,27 +124,28 @@ Program composeStage(const Program& base, const Program& correction, int num_inp
     c.constants.push_back(from.constants[static_cast<size_t>(slot)]);
     return m[slot] = static_cast<int>(c.constants.size()) - 1;
   };
-  for (const Instr& in : base.code) {
-    Instr out = in;
-    for (int a = 0; a < arity(in.op); ++a)
-      if (in.args[a].kind == OperandKind::Const)
-        out.args[a] = constOperand(constant(base_const, base, in.args[a].index));
-    c.code.push_back(out);
-  }
-  const int offset = static_cast<int>(base.code.size());
-  for (const Instr& in : correction.code) {
-    Instr out = in;
-    for (int a = 0; a < arity(in.op); ++a) {
-      const Operand& x = in.args[a];
-      if (x.kind == OperandKind::Const)
-        out.args[a] = constOperand(constant(corr_const, correction, x.index));
-      else if (x.kind == OperandKind::Reg)
-        out.args[a] = regOperand(x.index + offset);
-      else if (x.index >= num_inputs)
-        out.args[a] = regOperand(base.outputs[x.index - num_inputs]);
+  // Appends `from`'s opcodes: constants through `consts`, registers moved by `shift`, inputs
+  // through `read`.
+  auto append = [&](const Program& from, std::map<int, int>& consts, int shift, auto&& read) {
+    for (const Instr& in : from.code) {
+      Instr out = in;
+      for (int a = 0; a < arity(in.op); ++a) {
+        const Operand& x = in.args[a];
+        if (x.kind == OperandKind::Const)
+          out.args[a] = constOperand(constant(consts, from, x.index));
+        else if (x.kind == OperandKind::Reg)
+          out.args[a] = regOperand(x.index + shift);
+        else
+          out.args[a] = read(x);
+      }
+      c.code.push_back(out);
     }
-    c.code.push_back(out);
-  }
+  };
+  append(base, base_const, 0, [](const Operand& x) { return x; });
+  const int offset = static_cast<int>(base.code.size());
+  append(correction, corr_const, offset, [&](const Operand& x) {
+    return x.index >= num_inputs ? regOperand(base.outputs[x.index - num_inputs]) : x;
+  });
   if (mode == StageMode::Inside) {
     Instr arg;
     arg.op = Op::Add;
@@ -153,19 +154,8 @@ Program composeStage(const Program& base, const Program& correction, int num_inp
     c.code.push_back(arg);
     const int at = static_cast<int>(c.code.size()) - 1;
     const int again = at + 1;
-    for (const Instr& in : base.code) {
-      Instr out = in;
-      for (int a = 0; a < arity(in.op); ++a) {
-        const Operand& x = in.args[a];
-        if (x.kind == OperandKind::Const)
-          out.args[a] = constOperand(constant(base_const, base, x.index));
-        else if (x.kind == OperandKind::Reg)
-          out.args[a] = regOperand(x.index + again);
-        else if (x.index == input)
-          out.args[a] = regOperand(at);
-      }
-      c.code.push_back(out);
-    }
+    append(base, base_const, again,
+           [&](const Operand& x) { return x.index == input ? regOperand(at) : x; });
     c.outputs.push_back(static_cast<uint8_t>(base.outputs[0] + again));
     return pruneIntrons(c);
   }
