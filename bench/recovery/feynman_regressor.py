@@ -22,11 +22,13 @@ import argparse
 import json
 import math
 import os
-import platform
 import sys
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "peer"))
+from run import cpu_model  # noqa: E402  (the benchmarks' one CPU description)
 
 PI = math.pi
 
@@ -148,17 +150,6 @@ def report(meta, runs):
             r["formula"].replace("|", "\\|")))
     L += ["", "```sh", meta["command"], "```", ""]
     return "\n".join(L)
-
-
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def main(argv=None):
