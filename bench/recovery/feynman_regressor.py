@@ -2,7 +2,7 @@
 """Exact recovery in short runs: lgp.Regressor with its defaults on AI Feynman equations.
 
     PYTHONPATH=build/release/python python3 bench/recovery/feynman_regressor.py --out DIR \
-        [--seconds 30] [--seeds 1] [--equations I.12.1,...] [--label NAME]
+        [--seconds 30] [--generations G] [--seeds 1] [--equations I.12.1,...] [--label NAME]
 
 For every equation (the AI Feynman set of Udrescu and Tegmark, "AI Feynman: a physics-inspired
 method for symbolic regression", Science Advances 6(16), 2020, with the input ranges of its
@@ -16,7 +16,9 @@ R^2 >= 1 - 1e-12 (the definition of issue 51); ``near`` = R^2 >= 0.999 as well.
 Writes DIR/results.json (per equation and seed: R^2, formula, seconds) and DIR/report.md, after
 every run (a stopped benchmark keeps what it did). To compare two engines, run the script once
 per engine with PYTHONPATH at each build's python/ folder (side by side, one core each) and
-compare the counts.
+compare the counts. The report counts how the runs stopped: in engines older than the
+``--generations`` option, Regressor(seconds=S) also kept its default of 100 generations, which
+ends a run after about a second; ``--generations 0`` gives such an engine the whole S seconds.
 """
 import argparse
 import json
@@ -118,19 +120,37 @@ def r2(y, p):
     return 1 - res / ss if ss > 0 and math.isfinite(res) else -math.inf
 
 
-def run_one(lgp, name, seed, seconds):
+def run_one(lgp, name, seed, seconds, generations=None):
     text, spec, f = EQUATIONS[name]
     # The rows depend on the equation and seed only: every engine fits the same data.
     rng = np.random.default_rng([seed, sorted(EQUATIONS).index(name)])
     X, Xh = draw(spec, 1000, rng), draw(spec, 1000, rng)
     y, yh = f(*X.T), f(*Xh.T)
     t0 = time.monotonic()
-    m = lgp.Regressor(seconds=seconds, threads=1, random_state=seed).fit(X, y)
+    budget = {} if generations is None else {"generations": generations}
+    m = lgp.Regressor(seconds=seconds, threads=1, random_state=seed, **budget).fit(X, y)
     wall = time.monotonic() - t0
+    progress = getattr(m.front_, "progress", None) or {}
     p = m.model_.predict(Xh, double_precision=True)
     v = r2(yh, p)
     return {"equation": name, "truth": text, "seed": seed, "r2": v, "exact": v >= EXACT,
-            "near": v >= NEAR, "formula": m.formula_, "wall_s": wall}
+            "near": v >= NEAR, "formula": m.formula_, "wall_s": wall,
+            "generations": progress.get("generation"), "stop": progress.get("stop_reason")}
+
+
+def median(v):
+    v = sorted(v)
+    n = len(v)
+    return (v[(n - 1) // 2] + v[n // 2]) / 2 if n else math.nan
+
+
+def stops(runs):
+    """How the runs ended (the engine's stop reasons, counted): shows which budget applied."""
+    counts = {}
+    for r in runs:
+        key = r.get("stop") or "not reported"
+        counts[key] = counts.get(key, 0) + 1
+    return ", ".join("%s %d" % kv for kv in sorted(counts.items()))
 
 
 def report(meta, runs):
@@ -138,9 +158,12 @@ def report(meta, runs):
     exact = sum(r["exact"] for r in runs)
     near = sum(r["near"] for r in runs)
     L = ["# lgp.Regressor on AI Feynman equations (`feynman_regressor.py`)", "",
-         "Engine: %s. CPU: %s. %g s per run, 1 thread, Regressor defaults; 1,000 training and "
-         "1,000 held-out rows per equation and seed." % (meta["label"], meta["cpu"],
-                                                          meta["seconds"]), "",
+         "Engine: %s. CPU: %s. Regressor(seconds=%g, threads=1%s), the rest its defaults; "
+         "1,000 training and 1,000 held-out rows per equation and seed. Stops: %s; median "
+         "wall time %.3g s." % (meta["label"], meta["cpu"], meta["seconds"],
+                                "" if meta.get("generations") is None
+                                else ", generations=%d" % meta["generations"],
+                                stops(runs), median([r["wall_s"] for r in runs])), "",
          "**Exact (held-out R^2 >= 1 - 1e-12): %d of %d runs**; R^2 >= 0.999: %d of %d." % (
              exact, n, near, n), "",
          "| equation | truth | seed | held-out R^2 | exact | formula |", "|---|---|---|---|---|---|"]
@@ -158,6 +181,9 @@ def main(argv=None):
     ap.add_argument("--seconds", type=float, default=30.0)
     ap.add_argument("--seeds", type=int, default=1, help="seeds 1..N per equation")
     ap.add_argument("--equations", default="", help="comma-separated names (default: all)")
+    ap.add_argument("--generations", type=int, default=None,
+                    help="pass generations=G as well (0: no generation cap; an engine whose "
+                    "Regressor capped a seconds budget at 100 generations then runs the seconds)")
     ap.add_argument("--label", default="", help="the engine's name in the report")
     args = ap.parse_args(argv)
     names = [e for e in args.equations.split(",") if e] or list(EQUATIONS)
@@ -166,15 +192,17 @@ def main(argv=None):
             ap.error("unknown equation %r (known: %s)" % (e, ", ".join(EQUATIONS)))
     if not args.seconds > 0 or args.seeds < 1:
         ap.error("--seconds must be > 0 and --seeds >= 1")
+    if args.generations is not None and args.generations < 0:
+        ap.error("--generations must be >= 0")
     import lgp  # the engine under test: PYTHONPATH picks the build
     os.makedirs(args.out, exist_ok=True)
     meta = {"label": args.label or os.path.dirname(os.path.dirname(lgp.__file__)),
-            "cpu": cpu_model(), "seconds": args.seconds,
+            "cpu": cpu_model(), "seconds": args.seconds, "generations": args.generations,
             "command": " ".join([os.path.basename(sys.executable)] + sys.argv)}
     runs = []
     for name in names:
         for seed in range(1, args.seeds + 1):
-            runs.append(run_one(lgp, name, seed, args.seconds))
+            runs.append(run_one(lgp, name, seed, args.seconds, args.generations))
             r = runs[-1]
             print("%-10s seed %d  R^2 %.15g%s" % (name, seed, r["r2"], "  exact" if r["exact"]
                                                    else ""), flush=True)

@@ -33,6 +33,22 @@ def test_regressor_fits_and_chooses():
         lgp.Regressor(random_state=-3, generations=2).fit(X, y)
 
 
+def test_seconds_alone_is_the_budget():
+    # Regressor(seconds=S) searches S seconds: the default of 100 generations (about a second
+    # on this table) applies only when no budget is given, and then it is the stop.
+    rng = np.random.default_rng(3)
+    X = rng.uniform(0, 1, size=(60, 2))
+    y = np.exp2(-3 * X[:, 0]) * X[:, 1] + rng.normal(0, 1e-3, 60)
+    small = dict(population=20, max_length=6, random_state=1)
+    timed = lgp.Regressor(seconds=1.5, **small).fit(X, y)
+    assert timed.get_params()["generations"] is None
+    assert timed.front_.progress["stop_reason"] == "wall_time"
+    assert timed.front_.progress["generation"] > 100
+    default = lgp.Regressor(**small).fit(X, y)
+    assert default.front_.progress["stop_reason"] == "generations"
+    assert default.front_.progress["generation"] == 100
+
+
 def test_pipeline_and_grid_search():
     from sklearn.model_selection import cross_val_score
     from sklearn.pipeline import make_pipeline
@@ -66,6 +82,8 @@ def test_feynman_bench_equations_and_exact_recovery():
     y = rng.uniform(1, 2, 100)
     assert fr.r2(y, y) == 1.0
     assert fr.r2(y, y + 1e-5 * rng.standard_normal(100)) < fr.EXACT
-    # The benchmark's own run on the easiest equation: mu * Nn, found exactly in 3 s.
+    # The benchmark's own run on the easiest equation: mu * Nn, found exactly in 3 s, and
+    # the 3 s were its budget (not a generation count).
     r = fr.run_one(lgp, "I.12.1", 1, 3.0)
     assert r["exact"] and r["near"], r
+    assert r["stop"] == "wall_time" and fr.stops([r, r]) == "wall_time 2", r

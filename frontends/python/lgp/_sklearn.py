@@ -40,13 +40,15 @@ except ImportError:  # pragma: no cover - exercised where python3-sklearn is mis
 
 
 _SELECT = ("error", "cost", "knee")
+_DEFAULT_GENERATIONS = 100
 
 
 class Regressor(RegressorMixin, BaseEstimator):
     """Symbolic regression with lgp, as a scikit-learn regressor.
 
     Parameters: ``ops`` (operator names; None = the engine's default set), ``generations``
-    and ``seconds`` (budgets; ``seconds`` alone is the only budget), ``population``,
+    and ``seconds`` (budgets: ``seconds`` given alone is the only budget; with neither, 100
+    generations), ``population``,
     ``max_length`` (opcodes per program), ``threads`` (1 by default, so that a fit is
     reproducible for a given ``random_state``; 0 = every core), ``random_state`` (the seed),
     ``linear_scaling`` (fit a*f + b in closed form), ``error`` (the objective: rmse, mae,
@@ -64,7 +66,7 @@ class Regressor(RegressorMixin, BaseEstimator):
                "random_state", "linear_scaling", "error", "select", "max_cost", "max_error",
                "config", "progress")
 
-    def __init__(self, ops=None, generations=100, seconds=None, population=200, max_length=24,
+    def __init__(self, ops=None, generations=None, seconds=None, population=200, max_length=24,
                  threads=1, random_state=None, linear_scaling=True, error="rmse",
                  select="error", max_cost=None, max_error=None, config=None, progress=False):
         self.ops = ops
@@ -105,6 +107,11 @@ class Regressor(RegressorMixin, BaseEstimator):
                 raise ValueError("sample_weight: every weight is 0")
             sample_weight = None if np.all(sw == sw[0]) else sw
         seed = self._seed()
+        # A default of 100 generations would cut a ``seconds`` budget short (100 generations
+        # take about a second), so it applies only when no budget is given.
+        generations = self.generations
+        if generations is None and self.seconds is None:
+            generations = _DEFAULT_GENERATIONS
         sections = dict(self.config or {})
         sections["program"] = {**sections.get("program", {}), "max_length": self.max_length}
         search = {**sections.get("search", {}), "population": self.population,
@@ -112,7 +119,7 @@ class Regressor(RegressorMixin, BaseEstimator):
         sections["search"] = search
         sections["objectives"] = {**sections.get("objectives", {}), "error": self.error}
         self.front_ = _fit(X, y, inputs=[f"x{i}" for i in range(X.shape[1])], outputs=["y"],
-                           ops=self.ops, seconds=self.seconds, generations=self.generations,
+                           ops=self.ops, seconds=self.seconds, generations=generations,
                            threads=self.threads, seed=seed, sample_weight=sample_weight,
                            progress=self.progress, **sections)
         self.model_ = self._choose(self.front_)
