@@ -24,6 +24,7 @@ import argparse
 import json
 import math
 import os
+import statistics
 import sys
 import time
 
@@ -138,12 +139,6 @@ def run_one(lgp, name, seed, seconds, generations=None):
             "generations": progress.get("generation"), "stop": progress.get("stop_reason")}
 
 
-def median(v):
-    v = sorted(v)
-    n = len(v)
-    return (v[(n - 1) // 2] + v[n // 2]) / 2 if n else math.nan
-
-
 def stops(runs):
     """How the runs ended (the engine's stop reasons, counted): shows which budget applied."""
     counts = {}
@@ -163,7 +158,7 @@ def report(meta, runs):
          "wall time %.3g s." % (meta["label"], meta["cpu"], meta["seconds"],
                                 "" if meta.get("generations") is None
                                 else ", generations=%d" % meta["generations"],
-                                stops(runs), median([r["wall_s"] for r in runs])), "",
+                                stops(runs), statistics.median(r["wall_s"] for r in runs)), "",
          "**Exact (held-out R^2 >= 1 - 1e-12): %d of %d runs**; R^2 >= 0.999: %d of %d." % (
              exact, n, near, n), "",
          "| equation | truth | seed | held-out R^2 | exact | formula |", "|---|---|---|---|---|---|"]
