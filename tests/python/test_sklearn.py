@@ -49,6 +49,20 @@ def test_seconds_alone_is_the_budget():
     assert default.front_.progress["generation"] == 100
 
 
+def test_structured_start_only_when_asked():
+    # The Regressor is for exact recovery: the structured start's inexact polynomials are off
+    # unless its config names search.structured (then the engine's defaults apply).
+    rng = np.random.default_rng(3)
+    X = rng.uniform(0, 1, size=(60, 2))
+    y = np.exp2(-3 * X[:, 0]) * X[:, 1]
+    small = dict(generations=3, population=20, max_length=6, random_state=1)
+    plain = lgp.Regressor(**small).fit(X, y)
+    assert "structured" not in plain.front_.progress
+    asked = lgp.Regressor(**small, config={"search": {"structured": {}}}).fit(X, y)
+    assert asked.front_.progress["structured"]["fits"] > 0
+    assert asked.get_params()["config"] == {"search": {"structured": {}}}
+
+
 def test_pipeline_and_grid_search():
     from sklearn.model_selection import cross_val_score
     from sklearn.pipeline import make_pipeline

@@ -58,6 +58,12 @@ class Regressor(RegressorMixin, BaseEstimator):
     cheap), ``max_error``, ``config`` (a dict of further run-config sections) and
     ``progress`` (as lgp.fit).
 
+    Unlike lgp.fit, the Regressor runs without the structured accurate end
+    (``search.structured``) unless ``config`` names it: its least-squares polynomials give a
+    close but inexact fit at generation 0, which then takes the search's effort from the exact
+    formula (AI Feynman equations at 30 s, bench/results/feynman_short). Pass
+    ``config={"search": {"structured": {}}}`` to have it, as on smooth rendering tables.
+
     After ``fit``: ``front_`` (the whole :class:`lgp.Front`), ``model_`` (the chosen
     member), ``formula_`` and ``n_features_in_``.
     """
@@ -116,6 +122,7 @@ class Regressor(RegressorMixin, BaseEstimator):
         sections["program"] = {**sections.get("program", {}), "max_length": self.max_length}
         search = {**sections.get("search", {}), "population": self.population,
                   "linear_scaling": bool(self.linear_scaling)}
+        search.setdefault("structured", {"max_degree": 0})
         sections["search"] = search
         sections["objectives"] = {**sections.get("objectives", {}), "error": self.error}
         self.front_ = _fit(X, y, inputs=[f"x{i}" for i in range(X.shape[1])], outputs=["y"],
