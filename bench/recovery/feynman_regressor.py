@@ -2,7 +2,7 @@
 """Exact recovery in short runs: lgp.Regressor with its defaults on AI Feynman equations.
 
     PYTHONPATH=build/release/python python3 bench/recovery/feynman_regressor.py --out DIR \
-        [--seconds 30] [--generations G] [--seeds 1] [--equations I.12.1,...] [--label NAME]
+        [--seconds 30] [--generations G] [--seeds N|a,b] [--equations I.12.1,...] [--label NAME]
 
 For every equation (the AI Feynman set of Udrescu and Tegmark, "AI Feynman: a physics-inspired
 method for symbolic regression", Science Advances 6(16), 2020, with the input ranges of its
@@ -170,11 +170,23 @@ def report(meta, runs):
     return "\n".join(L)
 
 
+def parse_seeds(text):
+    """"3" -> [1, 2, 3]; "2,3" -> [2, 3]; [] where the text is not one of those."""
+    try:
+        parts = [int(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        return []
+    if "," not in text:
+        parts = list(range(1, parts[0] + 1)) if parts else []
+    return parts if parts and all(p >= 1 for p in parts) else []
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", required=True)
     ap.add_argument("--seconds", type=float, default=30.0)
-    ap.add_argument("--seeds", type=int, default=1, help="seeds 1..N per equation")
+    ap.add_argument("--seeds", default="1", help="N: seeds 1..N per equation; or a list, "
+                    "e.g. 2,3 (to split one measurement between cores)")
     ap.add_argument("--equations", default="", help="comma-separated names (default: all)")
     ap.add_argument("--generations", type=int, default=None,
                     help="pass generations=G as well (0: no generation cap; an engine whose "
@@ -185,8 +197,9 @@ def main(argv=None):
     for e in names:
         if e not in EQUATIONS:
             ap.error("unknown equation %r (known: %s)" % (e, ", ".join(EQUATIONS)))
-    if not args.seconds > 0 or args.seeds < 1:
-        ap.error("--seconds must be > 0 and --seeds >= 1")
+    seeds = parse_seeds(args.seeds)
+    if not args.seconds > 0 or not seeds:
+        ap.error("--seconds must be > 0 and --seeds a count >= 1 or a list of seeds >= 1")
     if args.generations is not None and args.generations < 0:
         ap.error("--generations must be >= 0")
     import lgp  # the engine under test: PYTHONPATH picks the build
@@ -196,7 +209,7 @@ def main(argv=None):
             "command": " ".join([os.path.basename(sys.executable)] + sys.argv)}
     runs = []
     for name in names:
-        for seed in range(1, args.seeds + 1):
+        for seed in seeds:
             runs.append(run_one(lgp, name, seed, args.seconds, args.generations))
             r = runs[-1]
             print("%-10s seed %d  R^2 %.15g%s" % (name, seed, r["r2"], "  exact" if r["exact"]
