@@ -47,6 +47,9 @@ def test_seconds_alone_is_the_budget():
     default = lgp.Regressor(**small).fit(X, y)
     assert default.front_.progress["stop_reason"] == "generations"
     assert default.front_.progress["generation"] == 100
+    # A budget in config is the budget: the default 100 generations do not cap it.
+    by_config = lgp.Regressor(**small, config={"search": {"generations": 130}}).fit(X, y)
+    assert by_config.front_.progress["generation"] == 130
 
 
 def test_structured_start_only_when_asked():

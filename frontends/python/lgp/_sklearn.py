@@ -47,8 +47,9 @@ class Regressor(RegressorMixin, BaseEstimator):
     """Symbolic regression with lgp, as a scikit-learn regressor.
 
     Parameters: ``ops`` (operator names; None = the engine's default set), ``generations``
-    and ``seconds`` (budgets: ``seconds`` given alone is the only budget; with neither, 100
-    generations), ``population``,
+    and ``seconds`` (budgets: ``seconds`` given alone is the only budget; with neither, here
+    or as ``search.generations`` / ``search.wall_time_s`` in ``config``, 100 generations),
+    ``population``,
     ``max_length`` (opcodes per program), ``threads`` (1 by default, so that a fit is
     reproducible for a given ``random_state``; 0 = every core), ``random_state`` (the seed),
     ``linear_scaling`` (fit a*f + b in closed form), ``error`` (the objective: rmse, mae,
@@ -114,11 +115,12 @@ class Regressor(RegressorMixin, BaseEstimator):
             sample_weight = None if np.all(sw == sw[0]) else sw
         seed = self._seed()
         # A default of 100 generations would cut a ``seconds`` budget short (100 generations
-        # take about a second), so it applies only when no budget is given.
-        generations = self.generations
-        if generations is None and self.seconds is None:
-            generations = _DEFAULT_GENERATIONS
+        # take about a second), so it applies only when no budget is given, here or in config.
         sections = dict(self.config or {})
+        generations = self.generations
+        config_budget = {"generations", "wall_time_s"} & set(sections.get("search", {}))
+        if generations is None and self.seconds is None and not config_budget:
+            generations = _DEFAULT_GENERATIONS
         sections["program"] = {**sections.get("program", {}), "max_length": self.max_length}
         search = {**sections.get("search", {}), "population": self.population,
                   "linear_scaling": bool(self.linear_scaling)}
