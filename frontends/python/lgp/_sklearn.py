@@ -117,14 +117,14 @@ class Regressor(RegressorMixin, BaseEstimator):
         # A default of 100 generations would cut a ``seconds`` budget short (100 generations
         # take about a second), so it applies only when no budget is given, here or in config.
         sections = dict(self.config or {})
-        generations = self.generations
-        config_budget = {"generations", "wall_time_s"} & set(sections.get("search", {}))
-        if generations is None and self.seconds is None and not config_budget:
-            generations = _DEFAULT_GENERATIONS
-        sections["program"] = {**sections.get("program", {}), "max_length": self.max_length}
         search = {**sections.get("search", {}), "population": self.population,
                   "linear_scaling": bool(self.linear_scaling)}
+        generations = self.generations
+        if generations is None and self.seconds is None and not (
+                {"generations", "wall_time_s"} & set(search)):
+            generations = _DEFAULT_GENERATIONS
         search.setdefault("structured", {"max_degree": 0})
+        sections["program"] = {**sections.get("program", {}), "max_length": self.max_length}
         sections["search"] = search
         sections["objectives"] = {**sections.get("objectives", {}), "error": self.error}
         self.front_ = _fit(X, y, inputs=[f"x{i}" for i in range(X.shape[1])], outputs=["y"],
