@@ -158,7 +158,8 @@ int main(int argc, char** argv) {
       "seed", "search seed", cxxopts::value<uint64_t>()->default_value("1"))(
       "cache-dir", "table cache (default: lgp data's)", cxxopts::value<std::string>())(
       "seed-references",
-      "start the search from the published fits (a second board beside the unseeded one)")(
+      "start the search from the published fits: runs the seeded board only (the unseeded "
+      "one is a run without this flag, into the same --out)")(
       "edge-objective",
       "the declared domain's edge rows are part of the search's objective (data.edges)")(
       "no-vulkan", "do not run the recommended members on lavapipe")(
