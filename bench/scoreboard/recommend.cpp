@@ -194,6 +194,7 @@ void recommend(TableRun& r, const std::filesystem::path& dir, const Options& o) 
     eo.function_name = "lgp_" + r.spec.name;
     eo.fast = true;
     eo.table = &r.heldout;  // the header's errors: on the held-out grid
+    eo.table_label = "the board's held-out set (declared domain, edges included)";
     eo.source = "lgp_scoreboard, " + r.spec.name + " member " + std::to_string(pick);
     auto code = emit::emitFromFront(fin.front, static_cast<size_t>(pick), lang, eo);
     const std::string name = r.spec.name + "_recommended." + ext;

@@ -531,8 +531,10 @@ Status errorLines(const EmitInput& in, const EmitOptions& opts, const Interface&
   if (opts.table) {
     auto m = detail::dagMetrics(d, *opts.table, tr, opts.precision);
     if (!m) return m.status();
-    const std::string first = "Error (this code, " + std::string(toString(opts.precision)) +
-                              " arithmetic, on the table): ";
+    const std::string first =
+        "Error (this code, " + std::string(toString(opts.precision)) + " arithmetic, on " +
+        (opts.table_label.empty() ? std::string("the given table") : opts.table_label) + ", " +
+        std::to_string(opts.table->rows()) + " rows): ";
     for (size_t j = 0; j < f.k; ++j)
       line((j == 0 ? first : std::string(first.size(), ' ')) + f.onames[j] + " " +
            metricsLine((*m)[j]));

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 #include <cxxopts.hpp>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -100,8 +101,7 @@ cxxopts::Options emitOptions(const char* argv0) {
   opts.positional_help("front.json");
   opts.add_options()("front", "front JSON written by `lgp run`", cxxopts::value<std::string>())(
       "l,lang", lgp::emit::languageChoices(),
-      cxxopts::value<std::string>()->default_value(
-          std::string(lgp::emit::allLanguages()[0].name)))(
+      cxxopts::value<std::string>()->default_value(std::string(lgp::emit::allLanguages()[0].name)))(
       "m,member", "member index", cxxopts::value<size_t>())(
       "max-error", "the cheapest member with error <= E", cxxopts::value<double>())(
       "max-cost", "the most accurate member with cost <= C", cxxopts::value<double>())(
@@ -265,8 +265,7 @@ int emitMain(int argc, char** argv) {
   const auto lang = lgp::emit::languageFromString(args["lang"].as<std::string>());
   if (!lang)
     return fail("--lang: expected " + lgp::emit::languageChoices() + " (got '" +
-                args["lang"].as<std::string>() +
-                "')");
+                args["lang"].as<std::string>() + "')");
   auto eo = emitOptionsOf(args, *lang);
   if (!eo) return fail(eo.error());
   auto member = pickMember(args, *front);
@@ -282,7 +281,10 @@ int emitMain(int argc, char** argv) {
                 "')");
   auto table = checkTable(args, *front, path, *in);
   if (!table) return fail(table.error());
-  if (args.count("table")) eo->table = &**table;
+  if (args.count("table")) {
+    eo->table = &**table;
+    eo->table_label = std::filesystem::path(args["table"].as<std::string>()).filename().string();
+  }
   eo->source = path + " member " + std::to_string(*member);
   // The code as emitted, compiled to AMD ISA: the header states what it costs.
   auto e = args.count("no-measure") ? lgp::emit::emitProgram(*in, *lang, *eo)

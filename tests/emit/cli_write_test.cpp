@@ -66,4 +66,19 @@ TEST_F(EmitWrite, FileGetsWhatStdoutGets) {
   EXPECT_FALSE(fs::exists(out.string() + ".tmp"));
 }
 
+// --table re-measures the header's error on that table, and the line names it and its rows
+// (it is often not the table the search fitted, whose errors the lines above give).
+TEST_F(EmitWrite, HeaderNamesTheTableItMeasuredOn) {
+  const std::string table = std::string(LGP_SOURCE_DIR) + "/examples/quickstart.csv";
+  const auto r = sh(emit() + "--no-measure --table " + table + " 2>/dev/null");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::ifstream f(table);
+  size_t rows = 0;
+  for (std::string l; std::getline(f, l);) rows += !l.empty();
+  EXPECT_NE(r.out.find("// Error (this code, float arithmetic, on quickstart.csv, " +
+                       std::to_string(rows - 1) + " rows): B rmse "),
+            std::string::npos)
+      << r.out;
+}
+
 }  // namespace

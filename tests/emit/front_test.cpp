@@ -110,11 +110,13 @@ TEST(EmitFront, HalfErrorIsReMeasuredOnTheTable) {
   EmitOptions o;
   o.precision = Precision::Half;
   o.table = &t;
+  o.table_label = "dfg.csv";
   auto in = emitInputFromFront(f, f["members"].size() - 1);
   ASSERT_TRUE(in.hasValue());
   auto e = emitProgram(*in, Language::Hlsl, o);
   ASSERT_TRUE(e.hasValue()) << e.error();
-  EXPECT_NE(e->code.find("// Error (this code, half arithmetic, on the table): A rmse "),
+  EXPECT_NE(e->code.find("// Error (this code, half arithmetic, on dfg.csv, " +
+                         std::to_string(t.rows()) + " rows): A rmse "),
             std::string::npos)
       << e->code;
   EXPECT_NE(e->code.find("half2 lgp_fit(half NoV, half r)"), std::string::npos);

@@ -82,7 +82,10 @@ struct EmitOptions {
   bool includes = true;  // C++: the #include lines
   std::vector<std::string> header_lines;  // extra header lines, e.g. the measured cost
   const Table* table = nullptr;           // if set, the header's error is re-measured on it
-  std::string source;                     // free text for the header, e.g. "front.json member 3"
+  // What `table` is, named in that header line (it is often not the table the search fitted,
+  // whose errors the lines above it give); empty: "the given table".
+  std::string table_label;
+  std::string source;  // free text for the header, e.g. "front.json member 3"
 
   Status validate(Language lang) const;
 };
