@@ -41,6 +41,12 @@ run --report-only --out "$W/two" || fail "a broken record stopped the report: $(
 grep -q "record left out: .*zh.json" "$W/err.txt" || fail "a broken record was not reported"
 same "$W/one/summary.json" "$W/two/summary.json" || fail "a broken record changed the board"
 
+# The edge objective is a board of its own, and its summary says so.
+run --tables sheen --edge-objective --out "$W/edges" || fail "--edge-objective: $(cat "$W/err.txt")"
+test -s "$W/edges/tables/sheen.edges.json" || fail "no edge-objective record"
+grep -q "with the edge objective" "$W/edges/report.md" || fail "the edge board's summary does not say so"
+grep -q "with the edge objective" "$W/one/report.md" && fail "the plain board claims the edge objective"
+
 run --tables nosuch --out "$W/two" && fail "an unknown table was accepted"
 grep -q "'nosuch' is not a table of the spec" "$W/err.txt" || fail "unknown table: $(cat "$W/err.txt")"
 echo "scoreboard records: ok"
