@@ -42,8 +42,8 @@ bool edgesAddRows(const ds::Scene& train,
                   const std::map<std::string, std::pair<double, double>>& domain) {
   for (const auto& a : train.grid) {
     auto d = domain.find(a.name);
-    if (d != domain.end() && !ds::edgeValues(sortedValues(a), d->second.first, d->second.second)
-                                  .empty())
+    if (d != domain.end() &&
+        !ds::edgeValues(sortedValues(a), d->second.first, d->second.second).empty())
       return true;
   }
   return false;
