@@ -95,6 +95,11 @@ TEST(Config, OutOfRangeNamesItsPath) {
   EXPECT_NE(errorOf(j).find("/search/stages/modes/1: 'outside' is not one of add, mul, inside"),
             std::string::npos)
       << errorOf(j);
+  j = minimal();
+  j["search"] = {{"stages", {{"pick", "cheap"}}}};
+  EXPECT_NE(errorOf(j).find("/search/stages/pick: 'cheap' is not one of accurate, spread"),
+            std::string::npos)
+      << errorOf(j);
 }
 
 TEST(Config, LmMetricSwitch) {

@@ -227,6 +227,32 @@ TEST(Stage, StagedRunsAreDeterministicAndResume) {
       << bad.message();
 }
 
+// pick = spread: bases from the front's error-cost staircase, evenly spaced from its cheapest
+// step; dominated candidates are never picked. pick = accurate: the most accurate first.
+TEST(Stage, SpreadBasesRunAlongTheStaircase) {
+  // (error, cost): a staircase 0.5@1, 0.2@3, 0.1@6, 0.05@10, 0.01@20 and two dominated members.
+  const std::vector<std::pair<double, double>> ec = {{0.1, 6}, {0.5, 1},   {0.3, 8}, {0.01, 20},
+                                                     {0.2, 3}, {0.05, 10}, {0.6, 2}};
+  EXPECT_EQ(stageBases(ec, 3, StagePick::Spread), (std::vector<size_t>{1, 0, 3}));
+  EXPECT_EQ(stageBases(ec, 8, StagePick::Spread), (std::vector<size_t>{1, 4, 0, 5, 3}));
+  EXPECT_EQ(stageBases(ec, 1, StagePick::Spread), (std::vector<size_t>{1}));
+  EXPECT_EQ(stageBases(ec, 3, StagePick::Accurate), (std::vector<size_t>{3, 5, 0}));
+  EXPECT_TRUE(stageBases({}, 3, StagePick::Spread).empty());
+}
+
+// A spread run puts composites into the archive and repeats.
+TEST(Stage, SpreadStagesAreDeterministic) {
+  RunConfig spread = stagedConfig();
+  spread.search.stages.pick = StagePick::Spread;
+  Search s(spread, stagedTable());
+  s.run();
+  EXPECT_GE(s.stagesInfo()[0]["picks"].get<int>(), 2);
+  EXPECT_GT(s.stagesInfo()[0]["composites"].get<int>(), 0);
+  Search again(spread, stagedTable());
+  again.run();
+  EXPECT_EQ(frontToJson(s, s.front())["members"], frontToJson(again, again.front())["members"]);
+}
+
 // Inside mode in a search: its composites enter the archive, runs repeat and resume (the
 // corrected input in the checkpoint), and a checkpoint naming no input of the run is refused.
 TEST(Stage, InsideStagesSearchCorrectedArguments) {

@@ -508,6 +508,14 @@ void parseStages(const nlohmann::json& j, StageConfig& c) {
   o.integer("max_length", c.max_length, 1, 128);
   o.integer("constants", c.constants, 0, 64);
   o.integer("bases", c.bases, 1, 1024);
+  o.enumeration(
+      "pick", c.pick,
+      [](const std::string& s) -> std::optional<StagePick> {
+        if (s == "accurate") return StagePick::Accurate;
+        if (s == "spread") return StagePick::Spread;
+        return std::nullopt;
+      },
+      "accurate, spread");
   if (o.has("modes")) {
     const auto& v = o.at("modes");
     if (!v.is_array() || v.empty())
@@ -940,7 +948,8 @@ nlohmann::json toJson(const RunConfig& c) {
                  for (StageMode m : s.stages.modes) a.push_back(std::string(toString(m)));
                  return a;
                }()},
-              {"bases", s.stages.bases}}}}},
+              {"bases", s.stages.bases},
+              {"pick", std::string(toString(s.stages.pick))}}}}},
           {"eval", {{"block_size", c.eval.block_size}}},
           {"output",
            {{"front_json", c.output.front_json},

@@ -21,6 +21,35 @@ std::string_view toString(StageMode m) {
   return "add";
 }
 
+std::string_view toString(StagePick p) {
+  return p == StagePick::Spread ? "spread" : "accurate";
+}
+
+std::vector<size_t> stageBases(const std::vector<std::pair<double, double>>& error_cost, int bases,
+                               StagePick pick) {
+  std::vector<size_t> idx(error_cost.size());
+  for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+  const size_t n = std::min(idx.size(), static_cast<size_t>(std::max(bases, 0)));
+  if (pick == StagePick::Accurate) {
+    std::stable_sort(idx.begin(), idx.end(),
+                     [&](size_t a, size_t b) { return error_cost[a] < error_cost[b]; });
+    idx.resize(n);
+    return idx;
+  }
+  std::stable_sort(idx.begin(), idx.end(), [&](size_t a, size_t b) {
+    const auto &x = error_cost[a], &y = error_cost[b];
+    return x.second != y.second ? x.second < y.second : x.first < y.first;
+  });
+  std::vector<size_t> stair;
+  for (size_t i : idx)
+    if (stair.empty() || error_cost[i].first < error_cost[stair.back()].first) stair.push_back(i);
+  const size_t m = std::min(stair.size(), n);
+  std::vector<size_t> out;
+  for (size_t i = 0; i < m; ++i)
+    out.push_back(stair[m == 1 ? 0 : i * (stair.size() - 1) / (m - 1)]);
+  return out;
+}
+
 Table residualTable(const Table& t, const std::vector<std::vector<float>>& f,
                     const std::vector<TargetTransform>& transforms, StageMode mode, int input,
                     const std::vector<double>& slope) {

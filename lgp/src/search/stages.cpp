@@ -118,11 +118,12 @@ bool Search::pickBase(int k, Stage& st) {
     cands.push_back({std::move(fp), m.obj.error, m.obj.cost});
   }
   if (cands.empty()) return false;
-  std::stable_sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
-    return a.error != b.error ? a.error < b.error : a.cost < b.cost;
-  });
-  const size_t n = std::min(cands.size(), static_cast<size_t>(sc.bases));
-  const size_t pick = (static_cast<size_t>(st.picks) * stages_.size() + static_cast<size_t>(k)) % n;
+  std::vector<std::pair<double, double>> ec;
+  for (const auto& c : cands) ec.emplace_back(c.error, c.cost);
+  const std::vector<size_t> order = stageBases(ec, sc.bases, sc.pick);
+  const size_t pick =
+      order[(static_cast<size_t>(st.picks) * stages_.size() + static_cast<size_t>(k)) %
+            order.size()];
   // A multiplicative (inside) correction is the composite's (linearised) squared error only for
   // RMSE of one output without channels; elsewhere the stage corrects additively. Inside picks
   // take the inputs in turn.

@@ -235,7 +235,9 @@ struct StageConfig {
   int constants = 8;     // and constant slots
   // In turn, pick by pick: add (y - f), mul (y / f), inside (f(x_i + g), inputs in turn).
   std::vector<StageMode> modes = {StageMode::Add, StageMode::Mul};
-  int bases = 8;  // a pick rotates over this many of the most accurate members with room
+  int bases = 8;  // a pick rotates over this many members with room
+  // Which: the most accurate (accurate), or spread along the front by cost (spread, stage.hpp).
+  StagePick pick = StagePick::Accurate;
 };
 
 struct SearchConfig {

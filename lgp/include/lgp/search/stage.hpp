@@ -15,6 +15,7 @@
 #pragma once
 
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "lgp/core/program.hpp"
@@ -26,6 +27,19 @@ namespace lgp {
 
 enum class StageMode : uint8_t { Add, Mul, Inside };
 std::string_view toString(StageMode m);
+
+// Which archive members a stage corrects (search.stages.pick): the most accurate that leave
+// room (accurate), or bases spread along the front's error-cost staircase from its cheap end
+// (spread): a cheap member plus a correction may reach accuracies the accurate members' own
+// refinement does not.
+enum class StagePick : uint8_t { Accurate, Spread };
+std::string_view toString(StagePick p);
+
+// The bases a stage rotates over, as indices into candidates given by (error, cost), at most
+// `bases`: the most accurate first (cost breaks ties), or (spread) steps of the error-cost
+// staircase (each more accurate than every cheaper candidate) evenly spaced, cheapest first.
+std::vector<size_t> stageBases(const std::vector<std::pair<double, double>>& error_cost, int bases,
+                               StagePick pick);
 
 // The residual table of a base whose per-output values (in program space, the outputs'
 // transforms applied: what the program computes) are `f` on the rows of `t`. Inputs: t's,
