@@ -37,18 +37,6 @@ std::vector<double> midpoints(const std::vector<double>& v) {
   return out;
 }
 
-// Whether the declared domain reaches beyond the training grid on some axis (edge rows exist).
-bool edgesAddRows(const ds::Scene& train,
-                  const std::map<std::string, std::pair<double, double>>& domain) {
-  for (const auto& a : train.grid) {
-    auto d = domain.find(a.name);
-    if (d != domain.end() &&
-        !ds::edgeValues(sortedValues(a), d->second.first, d->second.second).empty())
-      return true;
-  }
-  return false;
-}
-
 // The scene with every axis replaced by explicit values f(axis index, its sorted values).
 template <class F>
 Expected<ds::Scene> regridded(const ds::Scene& s, F f, double min_abs_error,
@@ -152,7 +140,7 @@ Status loadTables(TableRun& r, const std::filesystem::path& spec_dir, const Opti
   // data.edges does for lgp run), generated at values the held-out set does not use. A grid
   // that already spans its declared domain (fresnel_avg) has none: it is searched as it is,
   // so that one board can run every table with the option.
-  if (o.edge_objective && !edgesAddRows(train, r.spec.domain)) {
+  if (o.edge_objective && !ds::domainBeyondGrid(train, r.spec.domain)) {
     std::fprintf(stderr,
                  "lgp_scoreboard: %s: the training grid spans the declared domain: no edge rows\n",
                  r.spec.name.c_str());

@@ -30,11 +30,19 @@ std::vector<double> sortedValues(const GridAxis& a) {
 }
 }  // namespace
 
+bool domainBeyondGrid(const Scene& s,
+                      const std::map<std::string, std::pair<double, double>>& domain) {
+  for (const auto& [input, range] : domain) {
+    const GridAxis* a = s.axis(input);
+    if (a && !edgeValues(sortedValues(*a), range.first, range.second).empty()) return true;
+  }
+  return false;
+}
+
 Expected<Scene> edgeScene(const Scene& s,
                           const std::map<std::string, std::pair<double, double>>& domain,
                           const std::string& origin) {
   nlohmann::json j = toJson(s);
-  bool added = false;
   for (const auto& [input, range] : domain) {
     const GridAxis* a = s.axis(input);
     if (!a) return Status::error(origin + ": " + input + ": not an input of the scene's grid");
@@ -43,12 +51,11 @@ Expected<Scene> edgeScene(const Scene& s,
     std::vector<double> v = sortedValues(*a);
     const auto extra = edgeValues(v, range.first, range.second);
     if (extra.empty()) continue;
-    added = true;
     v.insert(v.end(), extra.begin(), extra.end());
     std::sort(v.begin(), v.end());
     j["grid"][input] = {{"values", v}};
   }
-  if (!added)
+  if (!domainBeyondGrid(s, domain))
     return Status::error(origin +
                          ": the declared domain adds no value to the grid (it lies inside it)");
   return parseScene(j, origin + " (edges)");

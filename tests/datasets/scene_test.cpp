@@ -1,5 +1,7 @@
 #include "lgp/datasets/scene.hpp"
 
+#include "lgp/datasets/edges.hpp"
+
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -252,4 +254,22 @@ TEST(Scene, NewEffectsNameTheirRequirements) {
       "grid": {"mu": {"count": 2}, "eta": {"count": 2}}})"))
                 .find("/grid/mu: not an input of the requested outputs (inputs: eta)"),
             std::string::npos);
+}
+
+// The declared domain adds edge values only where it reaches beyond the grid: the DFG grid
+// starts at mu = 1/64 (n.v 1e-4 lies beyond) and spans r over [0, 1]; edgeScene refuses a
+// domain that adds nothing, with the reason.
+TEST(Scene, DomainBeyondGridIsWhereEdgeValuesExist) {
+  auto s = parseScene(dfgScene());
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_TRUE(domainBeyondGrid(*s, {{"mu", {1e-4, 1}}}));
+  EXPECT_FALSE(domainBeyondGrid(*s, {{"r", {0, 1}}}));
+  EXPECT_FALSE(domainBeyondGrid(*s, {{"mu", {0.1, 0.9}}}));
+  EXPECT_FALSE(domainBeyondGrid(*s, {{"eta", {1, 3}}}));
+  EXPECT_FALSE(domainBeyondGrid(*s, {{"mu", {1, 1e-4}}}));
+  EXPECT_TRUE(edgeScene(*s, {{"mu", {1e-4, 1}}, {"r", {0, 1}}}, "s.json"));
+  auto none = edgeScene(*s, {{"r", {0, 1}}}, "s.json");
+  ASSERT_FALSE(none);
+  EXPECT_NE(none.error().find("the declared domain adds no value to the grid"), std::string::npos)
+      << none.error();
 }

@@ -24,9 +24,15 @@ namespace lgp::datasets {
 // hi. Neither end itself: a held-out set that checks the ends (bench/scoreboard) keeps them.
 std::vector<double> edgeValues(const std::vector<double>& train, double lo, double hi);
 
+// Whether `domain` (input -> [lo, hi]) adds an edge value to some axis of the scene's grid;
+// inputs that are not axes, and ranges with lo >= hi, add none. A board runs a table whose
+// grid spans its domain without edge rows; edgeScene refuses it.
+bool domainBeyondGrid(const Scene& s,
+                      const std::map<std::string, std::pair<double, double>>& domain);
+
 // The scene over its training values and the edge values of every axis `domain` names
 // (input -> [lo, hi]). Errors name the input: one that is not an axis of the scene, lo >= hi,
-// or a domain that adds no value.
+// or a domain that adds no value (domainBeyondGrid).
 Expected<Scene> edgeScene(const Scene& s,
                           const std::map<std::string, std::pair<double, double>>& domain,
                           const std::string& origin);
