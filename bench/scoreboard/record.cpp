@@ -245,6 +245,24 @@ void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
   std::filesystem::rename(tmp, path);
 }
 
+Status readFronts(TableRun& r, const Settings& s, const std::filesystem::path& dir) {
+  for (auto& sn : r.snaps) {
+    const auto path =
+        dir / "tables" / (stem(r.spec.name, s) + ".front." + minutesTag(sn.minutes) + "min.json");
+    std::ifstream in(path);
+    if (!in) return Status::error(path.string() + ": cannot open");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    auto j = parseJson(ss.str());
+    if (!j) return Status::error(path.string() + ": " + j.error());
+    if (!j->contains("members") || (*j)["members"].size() != sn.members.size())
+      return Status::error(path.string() + ": its members are not the record's " +
+                           std::to_string(sn.members.size()));
+    sn.front = std::move(*j);
+  }
+  return Status::ok();
+}
+
 std::vector<Record> readRecords(const std::filesystem::path& dir,
                                 std::vector<std::string>& skipped) {
   std::vector<Record> out;

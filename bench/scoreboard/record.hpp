@@ -30,6 +30,8 @@ struct Record {
 // (<name>.front.<minutes>min.json, lgp-front/1 with measured costs: `lgp front` reads it).
 void writeRecord(const TableRun& r, const Settings& s, const RecordTiming& t,
                  const std::filesystem::path& dir);
+// The fronts writeRecord wrote beside r's record (one per snapshot), into r.snaps[].front.
+Status readFronts(TableRun& r, const Settings& s, const std::filesystem::path& dir);
 // Every record in <dir>/tables; a file that is not a record is reported (`skipped`) and left out.
 std::vector<Record> readRecords(const std::filesystem::path& dir,
                                 std::vector<std::string>& skipped);

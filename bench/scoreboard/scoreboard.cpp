@@ -141,6 +141,45 @@ bool report(const std::vector<TableSpec>& specs, Settings settings, const fs::pa
               info.cpu.c_str());
   return true;
 }
+
+// --re-emit: each record of these settings (and --tables) gets its recommended code written
+// again from its saved front, with no search: its tables are generated again and must be the
+// ones the record was scored on.
+void reEmit(const std::vector<TableSpec>& specs, const fs::path& spec_path, const Options& o,
+            const std::set<std::string>& only, const fs::path& out) {
+  std::vector<std::string> skipped;
+  auto records = readRecords(out, skipped);
+  for (const auto& s : skipped)
+    std::fprintf(stderr, "lgp_scoreboard: record left out: %s\n", s.c_str());
+  const Settings& settings = o;
+  int done = 0;
+  for (auto& rec : records) {
+    if (!(rec.settings == settings) || (!only.empty() && !only.count(rec.run.spec.name)))
+      continue;
+    TableRun& r = rec.run;
+    const auto spec = std::find_if(specs.begin(), specs.end(),
+                                   [&](const TableSpec& t) { return t.name == r.spec.name; });
+    if (spec == specs.end()) die(r.spec.name + ": the record's table is not in the spec");
+    const fs::path cfg_path = spec_path.parent_path() / spec->config;
+    auto cfg = lgp::parseRunConfig(readJson(cfg_path), cfg_path.parent_path());
+    if (!cfg) die(cfg_path.string() + ": " + cfg.error());
+    r.cfg = *cfg;
+    const std::string train_desc = r.train_desc, heldout_desc = r.heldout_desc;
+    std::fprintf(stderr, "lgp_scoreboard: %s: tables\n", r.spec.name.c_str());
+    if (auto st = loadTables(r, spec_path.parent_path(), o); !st) die(st.message());
+    if (r.train_desc != train_desc || r.heldout_desc != heldout_desc)
+      die(r.spec.name + ": the tables are not the record's (training " + r.train_desc +
+          ", held out " + r.heldout_desc + "; the record: " + train_desc + ", " + heldout_desc +
+          "): run the table again");
+    if (auto st = readFronts(r, settings, out); !st) die(st.message());
+    const fs::path rec_dir = settings.seed_references ? out / "seeded" : out;
+    fs::create_directories(rec_dir);
+    recommend(r, rec_dir, o);
+    writeRecord(r, settings, rec.timing, out);
+    ++done;
+  }
+  if (done == 0) die(out.string() + ": no record with these settings (and --tables)");
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -164,6 +203,9 @@ int main(int argc, char** argv) {
       "the declared domain's edge rows are part of the search's objective (data.edges)")(
       "no-vulkan", "do not run the recommended members on lavapipe")(
       "report-only", "run nothing: rebuild the report from the folder's table records")(
+      "re-emit",
+      "no search: write each record's recommended code again from its saved front (the "
+      "records of these settings and --tables), then the report")(
       "check",
       "exit 1 unless every row has a measured ISA and a held-out error (77: no GPU backend)")(
       "h,help", "help");
@@ -178,6 +220,7 @@ int main(int argc, char** argv) {
   o.seed_references = args.count("seed-references") > 0;
   o.edge_objective = args.count("edge-objective") > 0;
   const bool report_only = args.count("report-only") > 0;
+  const bool re_emit = args.count("re-emit") > 0;
   if (args.count("cache-dir")) o.cache_dir = args["cache-dir"].as<std::string>();
   o.minutes.clear();
   {
@@ -211,7 +254,7 @@ int main(int argc, char** argv) {
                      [&](const TableSpec& t) { return t.name == name; }))
       die("--tables: '" + name + "' is not a table of the spec");
   for (const auto& spec : specs) {
-    if (report_only || (!only.empty() && !only.count(spec.name))) continue;
+    if (report_only || re_emit || (!only.empty() && !only.count(spec.name))) continue;
     const auto tw = std::chrono::steady_clock::now();
     const double tc = cpuSeconds();
     TableRun r;
@@ -239,7 +282,8 @@ int main(int argc, char** argv) {
     report(specs, settings, out);
     runs.push_back(std::move(r));
   }
-  if (report_only) {
+  if (re_emit) reEmit(specs, spec_path, o, only, out);
+  if (report_only || re_emit) {
     if (!report(specs, settings, out)) die(out.string() + ": no record with these settings");
   } else if (runs.empty()) {
     die("no table selected");

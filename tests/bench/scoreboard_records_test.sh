@@ -1,7 +1,7 @@
 #!/bin/bash
 # The scoreboard run table by table (issue 32): records in <out>/tables make the same board as
-# one invocation over the same tables; --report-only rebuilds it; records with other settings
-# and broken records are left out with a message, never a crash.
+# one invocation over the same tables; --report-only rebuilds it and --re-emit its code; records
+# with other settings and broken records are left out with a message, never a crash.
 # Usage: scoreboard_records_test.sh <lgp_scoreboard>
 set -u
 SB=$1
@@ -37,6 +37,19 @@ grep -q "| sheen | MaterialX sheen albedo (" "$W/two/report.md" || fail "--repor
 
 run --report-only --seed 2 --out "$W/two" && fail "--report-only with no matching record succeeded"
 grep -q "no record with these settings" "$W/err.txt" || fail "no reason given: $(cat "$W/err.txt")"
+
+# --re-emit writes a record's recommended code again from its saved front, as the run wrote it.
+rm "$W/two/sheen_recommended.glsl"
+run --re-emit --tables sheen --out "$W/two" || fail "--re-emit: $(cat "$W/err.txt")"
+cmp -s "$W/one/sheen_recommended.glsl" "$W/two/sheen_recommended.glsl" ||
+  fail "--re-emit wrote other code: $(diff "$W/one/sheen_recommended.glsl" "$W/two/sheen_recommended.glsl" | head)"
+same "$W/one/summary.json" "$W/two/summary.json" || fail "--re-emit changed the board"
+run --re-emit --seed 2 --out "$W/two" && fail "--re-emit with no matching record succeeded"
+grep -q "no record with these settings" "$W/err.txt" || fail "--re-emit: no reason given: $(cat "$W/err.txt")"
+mv "$W/two/tables/sheen.front.0.005min.json" "$W/sheen.front"
+run --re-emit --tables sheen --out "$W/two" && fail "--re-emit without the saved front succeeded"
+grep -q "sheen.front.0.005min.json: cannot open" "$W/err.txt" || fail "--re-emit: no missing front named: $(cat "$W/err.txt")"
+mv "$W/sheen.front" "$W/two/tables/sheen.front.0.005min.json"
 
 echo '{"format": "lgp-scoreboard-table/1", "spec": {' >"$W/two/tables/zh.json"
 run --report-only --out "$W/two" || fail "a broken record stopped the report: $(cat "$W/err.txt")"
