@@ -154,8 +154,7 @@ void reEmit(const std::vector<TableSpec>& specs, const fs::path& spec_path, cons
   const Settings& settings = o;
   int done = 0;
   for (auto& rec : records) {
-    if (!(rec.settings == settings) || (!only.empty() && !only.count(rec.run.spec.name)))
-      continue;
+    if (!(rec.settings == settings) || (!only.empty() && !only.count(rec.run.spec.name))) continue;
     TableRun& r = rec.run;
     const auto spec = std::find_if(specs.begin(), specs.end(),
                                    [&](const TableSpec& t) { return t.name == r.spec.name; });
