@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "lgp/config/json_reader.hpp"
+#include "lgp/io/result.hpp"
 
 namespace lgp::board {
 
@@ -249,16 +250,12 @@ Status readFronts(TableRun& r, const Settings& s, const std::filesystem::path& d
   for (auto& sn : r.snaps) {
     const auto path =
         dir / "tables" / (stem(r.spec.name, s) + ".front." + minutesTag(sn.minutes) + "min.json");
-    std::ifstream in(path);
-    if (!in) return Status::error(path.string() + ": cannot open");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    auto j = parseJson(ss.str());
-    if (!j) return Status::error(path.string() + ": " + j.error());
-    if (!j->contains("members") || (*j)["members"].size() != sn.members.size())
+    auto front = readFrontJson(path);  // its names reach the emitted code: checked there
+    if (!front) return front.status();
+    if ((*front)["members"].size() != sn.members.size())
       return Status::error(path.string() + ": its members are not the record's " +
                            std::to_string(sn.members.size()));
-    sn.front = std::move(*j);
+    sn.front = std::move(*front);
   }
   return Status::ok();
 }

@@ -46,6 +46,14 @@ std::string cpuModel() {
   return "unknown CPU";
 }
 
+// A table's run config: the spec names it relative to the spec's folder.
+lgp::RunConfig tableConfig(const fs::path& spec_path, const TableSpec& spec) {
+  const fs::path cfg_path = spec_path.parent_path() / spec.config;
+  auto cfg = lgp::parseRunConfig(readJson(cfg_path), cfg_path.parent_path());
+  if (!cfg) die(cfg_path.string() + ": " + cfg.error());
+  return *cfg;
+}
+
 double cpuSeconds() {
   rusage u{};
   getrusage(RUSAGE_SELF, &u);
@@ -159,10 +167,7 @@ void reEmit(const std::vector<TableSpec>& specs, const fs::path& spec_path, cons
     const auto spec = std::find_if(specs.begin(), specs.end(),
                                    [&](const TableSpec& t) { return t.name == r.spec.name; });
     if (spec == specs.end()) die(r.spec.name + ": the record's table is not in the spec");
-    const fs::path cfg_path = spec_path.parent_path() / spec->config;
-    auto cfg = lgp::parseRunConfig(readJson(cfg_path), cfg_path.parent_path());
-    if (!cfg) die(cfg_path.string() + ": " + cfg.error());
-    r.cfg = *cfg;
+    r.cfg = tableConfig(spec_path, *spec);
     const std::string train_desc = r.train_desc, heldout_desc = r.heldout_desc;
     std::fprintf(stderr, "lgp_scoreboard: %s: tables\n", r.spec.name.c_str());
     if (auto st = loadTables(r, spec_path.parent_path(), o); !st) die(st.message());
@@ -258,10 +263,7 @@ int main(int argc, char** argv) {
     const double tc = cpuSeconds();
     TableRun r;
     r.spec = spec;
-    const fs::path cfg_path = spec_path.parent_path() / spec.config;
-    auto cfg = lgp::parseRunConfig(readJson(cfg_path), cfg_path.parent_path());
-    if (!cfg) die(cfg_path.string() + ": " + cfg.error());
-    r.cfg = *cfg;
+    r.cfg = tableConfig(spec_path, spec);
     std::fprintf(stderr, "lgp_scoreboard: %s: tables\n", spec.name.c_str());
     const auto tt = std::chrono::steady_clock::now();
     if (auto st = loadTables(r, spec_path.parent_path(), o); !st) die(st.message());
