@@ -495,6 +495,9 @@ void parseStructured(const nlohmann::json& j, StructuredConfig& c) {
   o.boolean("rational", c.rational);
   o.boolean("exp2", c.exp2);
   o.boolean("sqrt_inputs", c.sqrt_inputs);
+  o.boolean("square_inputs", c.square_inputs);
+  o.boolean("tensor", c.tensor);
+  o.integer("polish", c.polish, 0, 1000);
   o.integer("max_rows", c.max_rows, 64, 1 << 24);
   o.number("share", c.share, 0, 1);
   o.finish();
@@ -934,6 +937,9 @@ nlohmann::json toJson(const RunConfig& c) {
               {"rational", s.structured.rational},
               {"exp2", s.structured.exp2},
               {"sqrt_inputs", s.structured.sqrt_inputs},
+              {"square_inputs", s.structured.square_inputs},
+              {"tensor", s.structured.tensor},
+              {"polish", s.structured.polish},
               {"max_rows", s.structured.max_rows},
               {"share", s.structured.share}}},
             {"stages",

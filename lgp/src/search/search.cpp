@@ -601,7 +601,7 @@ std::vector<Search::Individual> Search::structuredStart() {
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<Individual> inds;
   std::vector<std::string> families;
-  for (auto& f : structuredFits(cfg_, table_, shape_, domain_)) {
+  for (auto& f : structuredFits(cfg_, table_, shape_, domain_, threads_)) {
     auto p = fitToShape(f.program, shape_);
     if (!p) continue;
     inds.push_back({std::move(*p), {}, false});

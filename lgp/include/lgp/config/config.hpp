@@ -217,12 +217,15 @@ struct ExhaustiveConfig {
 // rational and exp2-of-polynomial families in Horner form, offered to the archive and to the
 // islands that search the run's whole program shape when the search starts.
 struct StructuredConfig {
-  int max_degree = 8;       // highest total degree of a polynomial; 0 = off
-  bool rational = true;     // P_d / Q_e, e <= min(d, 3)
-  bool exp2 = true;         // exp2 of a polynomial (outputs > 0 on every row)
-  bool sqrt_inputs = true;  // features sqrt(x) besides x (inputs >= 0, at most 3 inputs)
-  int max_rows = 65536;     // rows of the fit: an even stride over a larger table
-  double share = 0.25;      // of each whole-shape island's initial population, at most
+  int max_degree = 8;         // highest total degree of a polynomial; 0 = off
+  bool rational = true;       // P_d / Q_e, e <= min(d, 3)
+  bool exp2 = true;           // exp2 of a polynomial (outputs > 0 on every row)
+  bool sqrt_inputs = true;    // features sqrt(x) besides x (inputs >= 0, at most 3 inputs)
+  bool square_inputs = true;  // and x^2 (at most 2 inputs: n.v and alpha = r^2)
+  bool tensor = true;         // degree d in each of 2 inputs, besides total degree d
+  int polish = 30;            // Levenberg-Marquardt steps on a rational's P/Q - y; 0 = none
+  int max_rows = 65536;       // rows of the fit: an even stride over a larger table
+  double share = 0.25;        // of each whole-shape island's initial population, at most
 };
 
 // Residual stages (search/stage.hpp): islands of their own that search corrections of
