@@ -3,6 +3,8 @@
 // the archive at the start of a search.
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <chrono>
 #include <cmath>
 
@@ -160,8 +162,11 @@ TEST(Structured, ThePolishBeatsTheLinearisedFitAndTheFitsDoNotDependOnThreads) {
   });
   RunConfig c = structuredOnly(3);
   const ProgramShape shape = c.shape(2, 1);
+  const int threads_before = omp_get_max_threads();
   const auto one = structuredFits(c, t, shape, tableDomain(t), 1);
   const auto four = structuredFits(c, t, shape, tableDomain(t), 4);
+  // Each fitting task pins Eigen to one thread; the caller's setting is left as it was.
+  EXPECT_EQ(omp_get_max_threads(), threads_before);
   ASSERT_EQ(one.size(), four.size());
   for (size_t i = 0; i < one.size(); ++i) {
     EXPECT_EQ(one[i].family, four[i].family);
