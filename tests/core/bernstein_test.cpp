@@ -58,5 +58,29 @@ TEST(Bernstein, ExactForAMonotonePolynomialAndTighterOnSmallerBoxes) {
   EXPECT_FALSE(bernsteinRange({}, {{0, 1, false}}).nan);
 }
 
+TEST(Bernstein, TooManyVariablesGiveNoBound) {
+  // 1 + sum x_i over 30 variables: 2^30 coefficients, past the limit: the whole line.
+  Polynomial p = {{std::vector<int>(30, 0), 1.0}};
+  for (int i = 0; i < 30; ++i) {
+    std::vector<int> e(30, 0);
+    e[i] = 1;
+    p[e] = 1.0;
+  }
+  const Interval b = bernsteinRange(p, std::vector<Interval>(30, Interval{0, 1, false}));
+  EXPECT_TRUE(b.nan);
+  EXPECT_FALSE(b.finite());
+  // 20 variables (2^20 coefficients) are bounded: [1, 21].
+  Polynomial q = {{std::vector<int>(20, 0), 1.0}};
+  for (int i = 0; i < 20; ++i) {
+    std::vector<int> e(20, 0);
+    e[i] = 1;
+    q[e] = 1.0;
+  }
+  const Interval c = bernsteinRange(q, std::vector<Interval>(20, Interval{0, 1, false}));
+  EXPECT_FALSE(c.nan);
+  EXPECT_NEAR(c.lo, 1.0, 1e-9);
+  EXPECT_NEAR(c.hi, 21.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace lgp

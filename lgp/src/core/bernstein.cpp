@@ -26,7 +26,10 @@ Interval bernsteinRange(const Polynomial& p, const std::vector<Interval>& box) {
   for (const auto& [e, c] : p)
     for (size_t i = 0; i < n && i < e.size(); ++i) deg[i] = std::max(deg[i], e[i]);
   std::vector<size_t> stride(n + 1, 1);
-  for (size_t i = 0; i < n; ++i) stride[i + 1] = stride[i] * static_cast<size_t>(deg[i] + 1);
+  for (size_t i = 0; i < n; ++i) {
+    stride[i + 1] = stride[i] * static_cast<size_t>(deg[i] + 1);
+    if (stride[i + 1] > kMaxBernsteinCoefficients) return {};  // no bound: the whole line
+  }
   std::vector<double> t(stride[n], 0.0);
   // Power coefficients in t: prod_i (a_i + h_i t_i)^e_i, expanded term by term.
   for (const auto& [e, c] : p) {
