@@ -115,6 +115,17 @@ struct Job {
   bool tensor = false;
 };
 
+// Steps a mixed-radix counter, the first digit fastest (digit i counts to radix(i)); false
+// once it wraps back to all zeros. Walks grids of cells and feature choices alike.
+template <class T, class Radix>
+bool advance(std::vector<T>& idx, Radix radix) {
+  for (size_t i = 0; i < idx.size(); ++i) {
+    if (++idx[i] < static_cast<T>(radix(i))) return true;
+    idx[i] = 0;
+  }
+  return false;
+}
+
 // The fit's rows: an even stride over a large table.
 std::vector<size_t> fitRows(size_t rows, int max_rows) {
   std::vector<size_t> r;
@@ -179,13 +190,7 @@ class Fitter {
         pt[a] = lo + (hi - lo) * idx[a] / (per_axis - 1);
       }
       box_.push_back(pt);
-      more = false;
-      for (int a = 0; a < n && !more; ++a) {
-        if (++idx[a] < per_axis)
-          more = true;
-        else
-          idx[a] = 0;
-      }
+      more = advance(idx, [&](size_t) { return per_axis; });
     }
   }
 
@@ -264,13 +269,7 @@ class Fitter {
       }
       out.push_back(std::move(f));
       // The first input's choice varies fastest (raw, root, square).
-      more = false;
-      for (int i = 0; i < n && !more; ++i) {
-        if (++idx[i] < choice[i].size())
-          more = true;
-        else
-          idx[i] = 0;
-      }
+      more = advance(idx, [&](size_t i) { return choice[i].size(); });
     }
     return out;
   }
@@ -438,13 +437,7 @@ class Fitter {
       const Interval qr = bernsteinRange(q, box), pr = bernsteinRange(p, box);
       if (qr.nan || pr.nan || !(qr.lo > 0)) return false;
       if (std::max(std::fabs(pr.lo), std::fabs(pr.hi)) > limit * qr.lo) return false;
-      more = false;
-      for (int i = 0; i < n && !more; ++i) {
-        if (++idx[i] < cells)
-          more = true;
-        else
-          idx[i] = 0;
-      }
+      more = advance(idx, [&](size_t) { return cells; });
     }
     return true;
   }
